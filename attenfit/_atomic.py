@@ -1,0 +1,123 @@
+"""Atomic output: nothing attenfit writes is ever half-written or silently overwritten.
+
+Every file goes to a temporary name in its destination folder and is renamed into place
+when complete (`os.replace` is atomic on one filesystem); a folder is built under a
+temporary name and moved into place the same way.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+from ._errors import BadValueError, OutputExistsError
+
+__all__ = ["check_output_path", "atomic_write", "atomic_dir"]
+
+_TMP_MARK = ".attenfit-tmp"
+
+
+def check_output_path(
+    path: str | os.PathLike, *, force: bool = False, folder: bool = False
+) -> Path:
+    """Validate an output path before any work starts; return it as a `Path`.
+
+    Refuses (with `OutputExistsError`) an existing file, or an existing non-empty folder
+    when `folder=True`, unless `force`; refuses (with `BadValueError`) a path whose
+    parent is missing, is a file, or is not writable.
+    """
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    for ancestor in [parent, *parent.parents]:
+        if ancestor.exists() and not ancestor.is_dir():
+            raise BadValueError(
+                f"output path {str(path)!r} sits under {str(ancestor)!r}, which is a file"
+            )
+    if not parent.exists():
+        if folder:
+            return path  # a report folder's parents are created on commit
+        raise BadValueError(f"output folder {str(parent)!r} does not exist (for {str(path)!r})")
+    if not os.access(parent, os.W_OK):
+        raise BadValueError(f"output folder {str(parent)!r} is not writable")
+    if path.exists():
+        if folder:
+            if not path.is_dir():
+                raise BadValueError(f"output {str(path)!r} exists and is a file, not a folder")
+            if any(path.iterdir()) and not force:
+                raise OutputExistsError(
+                    f"output folder {str(path)!r} exists and is not empty; use force=True (--force) to replace it"
+                )
+        else:
+            if path.is_dir():
+                raise BadValueError(f"output {str(path)!r} is a folder, not a file")
+            if not force:
+                raise OutputExistsError(
+                    f"output file {str(path)!r} exists; use force=True (--force) to overwrite it"
+                )
+    return path
+
+
+def atomic_write(
+    path: str | os.PathLike,
+    data: bytes | str | Callable[[Path], None],
+    *,
+    force: bool = False,
+) -> Path:
+    """Write `data` to `path` atomically.
+
+    `data` is bytes, text, or a callable that writes the file at the temporary path it is
+    given (e.g. `lambda p: np.savez(p, ...)`; the temporary name keeps `path`'s suffix).
+    Refuses to replace an existing file unless `force`.
+    """
+    path = check_output_path(path, force=force)
+    fd, tmp = tempfile.mkstemp(
+        prefix=f".{path.name}.", suffix=f"{_TMP_MARK}{path.suffix}", dir=path.parent or "."
+    )
+    os.close(fd)
+    tmp_path = Path(tmp)
+    try:
+        if callable(data):
+            data(tmp_path)
+        elif isinstance(data, str):
+            tmp_path.write_text(data, encoding="utf-8")
+        else:
+            tmp_path.write_bytes(data)
+        with open(tmp_path, "rb+") as fh:
+            os.fsync(fh.fileno())
+        if path.exists() and not force:  # appeared while we were writing
+            raise OutputExistsError(
+                f"output file {str(path)!r} appeared while writing; not overwritten"
+            )
+        os.replace(tmp_path, path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp_path.unlink()
+    return path
+
+
+@contextlib.contextmanager
+def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
+    """Build a folder under a temporary name; move it to `path` only when the block succeeds.
+
+    An existing non-empty `path` is refused unless `force`; with `force` it is replaced only
+    after the new folder is complete, so an interrupted run leaves the previous one intact.
+    """
+    path = check_output_path(path, force=force, folder=True)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
+    try:
+        yield tmp
+        old = None
+        if path.exists():
+            old = path.with_name(f".{path.name}.old{_TMP_MARK}")
+            shutil.rmtree(old, ignore_errors=True)
+            os.replace(path, old)
+        os.replace(tmp, path)
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)

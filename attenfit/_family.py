@@ -1,0 +1,185 @@
+"""The abstract `Family` base and the registry of named families."""
+
+from __future__ import annotations
+
+import abc
+import dataclasses
+import inspect
+from collections.abc import Mapping
+from typing import Any, ClassVar
+
+import equinox as eqx
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ._errors import BadTypeError, BadValueError, UnknownNameError
+
+__all__ = ["Family", "register_family", "list_families", "get_family"]
+
+#: The kinds of constraint a parameter can carry (see `Family.constraints`).
+CONSTRAINTS = ("positive", "nonnegative", "unit", "real")
+
+
+class Family(eqx.Module):
+    """A differentiable, parameterised attenuation curve `f(d)`, in 1/length^2.
+
+    `d` is the distance from the light's centre (DESIGN.md section 1). A point light of
+    intensity `I` gives irradiance `E = I * g * f(d) * max(0, n.l)`. A family's fields are
+    its parameters (scalars, or arrays with a leading batch axis for `fit_many`); calling
+    it broadcasts over `d` and returns the dtype of `d` (or the wider of `d` and the
+    parameters). Every family is `jit`-, `vmap`- and `grad`-able and constructs with no
+    arguments.
+
+    Subclasses are final: they declare their parameters as fields with defaults, the class
+    variables below, and `__call__`.
+    """
+
+    #: Registry name, e.g. ``"yuksel"``.
+    name: eqx.AbstractClassVar[str]
+    #: The formula as text, in the stable form the code evaluates.
+    formula: eqx.AbstractClassVar[str]
+    #: Citation: paper and equation, or engine file and function.
+    source: eqx.AbstractClassVar[str]
+    #: Parameters a fit frees when the caller does not say (`fit(..., free=None)`).
+    default_free: eqx.AbstractClassVar[tuple[str, ...]]
+
+    # Declared properties, checked for every family by the generic test suite.
+    #: Parameter -> one of "positive" (the default), "nonnegative" (0 allowed and reachable
+    #: by a fit), "unit" (strictly between 0 and 1), "real" (unconstrained).
+    constraints: ClassVar[Mapping[str, str]] = {}
+    #: True for the two honestly singular families (`inverse_square`, `gltf_range`).
+    singular: ClassVar[bool] = False
+    #: Name of the parameter at which the curve reaches 0 (a window's range), if any.
+    range_param: ClassVar[str | None] = None
+    #: "smooth": value and slope reach 0 at the range; "hard": the value does; "none".
+    window: ClassVar[str] = "none"
+    #: Non-increasing in `d` for every parameter value.
+    monotone: ClassVar[bool] = True
+    #: `f(d) * d^2 -> 1` as `d / (length scale) -> inf` (physically motivated families).
+    tends_to_inverse_square: ClassVar[bool] = False
+    #: Parameters with units of length: under d -> s d and p -> s p for each of them, the
+    #: curve scales as f -> f / s^2 (or is unchanged for a family with a free `scale`).
+    length_params: ClassVar[tuple[str, ...]] = ()
+
+    @abc.abstractmethod
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
+        """Evaluate `f(d)`."""
+
+    @classmethod
+    def param_names(cls) -> tuple[str, ...]:
+        """The parameter names, in field order."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def defaults(cls) -> dict[str, Any]:
+        """The default parameter values."""
+        return {f.name: f.default for f in dataclasses.fields(cls)}
+
+    @classmethod
+    def constraint(cls, param: str) -> str:
+        """The constraint of `param` ("positive" unless `constraints` says otherwise)."""
+        if param not in cls.param_names():
+            raise UnknownNameError(
+                f"family {cls.name!r} has no parameter {param!r}; it has {list(cls.param_names())}"
+            )
+        return cls.constraints.get(param, "positive")
+
+    def params(self) -> dict[str, Any]:
+        """The parameter values, by name."""
+        return {name: getattr(self, name) for name in self.param_names()}
+
+    def replace(self, **values: Any) -> Family:
+        """A copy with some parameters replaced."""
+        names = self.param_names()
+        for key in values:
+            if key not in names:
+                raise UnknownNameError(
+                    f"family {self.name!r} has no parameter {key!r}; it has {list(names)}"
+                )
+        return dataclasses.replace(self, **values)
+
+    @classmethod
+    def describe(cls) -> dict[str, Any]:
+        """Name, formula, source, parameters with defaults and constraints, and properties."""
+        return {
+            "name": cls.name,
+            "formula": cls.formula,
+            "source": cls.source,
+            "params": {
+                p: {"default": _plain(v), "constraint": cls.constraint(p)}
+                for p, v in cls.defaults().items()
+            },
+            "default_free": list(cls.default_free),
+            "singular": cls.singular,
+            "range_param": cls.range_param,
+            "window": cls.window,
+            "monotone": cls.monotone,
+            "tends_to_inverse_square": cls.tends_to_inverse_square,
+        }
+
+
+def _plain(value: Any) -> Any:
+    """A JSON-friendly copy of a parameter value."""
+    arr = np.asarray(value)
+    return arr.item() if arr.ndim == 0 else arr.tolist()
+
+
+_REGISTRY: dict[str, type[Family]] = {}
+
+
+def register_family(cls: type[Family] | None = None, *, overwrite: bool = False):
+    """Add a `Family` subclass to the registry under its `name` (usable as a decorator).
+
+    The class must be a concrete subclass of `Family` that constructs with no arguments;
+    a name already taken is refused unless `overwrite=True`.
+    """
+
+    def add(klass: type[Family]) -> type[Family]:
+        if not (inspect.isclass(klass) and issubclass(klass, Family)):
+            raise BadTypeError(
+                f"register_family takes a subclass of attenfit.Family, got {klass!r}"
+            )
+        if inspect.isabstract(klass):
+            missing = sorted(getattr(klass, "__abstractmethods__", ()))
+            raise BadTypeError(f"family class {klass.__name__} is abstract (missing {missing})")
+        name = getattr(klass, "name", None)
+        if not isinstance(name, str) or not name.isidentifier():
+            raise BadValueError(
+                f"family class {klass.__name__} needs a class attribute `name` that is an identifier, got {name!r}"
+            )
+        if name in _REGISTRY and _REGISTRY[name] is not klass and not overwrite:
+            raise BadValueError(
+                f"a family named {name!r} is registered already; pass overwrite=True to replace it"
+            )
+        for param in klass.default_free:
+            klass.constraint(param)  # raises on an unknown name
+        for param, kind in klass.constraints.items():
+            if kind not in CONSTRAINTS:
+                raise BadValueError(
+                    f"family {name!r}: constraint {kind!r} of {param!r} is not one of {list(CONSTRAINTS)}"
+                )
+        try:
+            klass()
+        except Exception as exc:
+            raise BadValueError(f"family {name!r} must construct with no arguments: {exc}") from exc
+        _REGISTRY[name] = klass
+        return klass
+
+    return add if cls is None else add(cls)
+
+
+def list_families() -> list[str]:
+    """The registered family names, in registration order."""
+    return list(_REGISTRY)
+
+
+def get_family(name: str) -> type[Family]:
+    """The family class registered as `name`."""
+    if not isinstance(name, str):
+        raise BadTypeError(f"family name must be a string, got {name!r}")
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown family {name!r}; known families: {', '.join(_REGISTRY)}"
+        ) from None
