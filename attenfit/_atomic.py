@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ._errors import BadValueError, OutputExistsError
 
-__all__ = ["check_output_path", "atomic_write", "atomic_dir"]
+__all__ = ["atomic_dir", "atomic_write", "check_output_path"]
 
 _TMP_MARK = ".attenfit-tmp"
 

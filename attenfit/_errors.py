@@ -9,11 +9,11 @@ from __future__ import annotations
 
 __all__ = [
     "AttenfitError",
-    "BadValueError",
     "BadTypeError",
-    "UnknownNameError",
-    "OutputExistsError",
+    "BadValueError",
     "DataFileError",
+    "OutputExistsError",
+    "UnknownNameError",
 ]
 
 

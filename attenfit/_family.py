@@ -14,7 +14,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ._errors import BadTypeError, BadValueError, UnknownNameError
 
-__all__ = ["Family", "register_family", "list_families", "get_family"]
+__all__ = ["Family", "get_family", "list_families", "register_family"]
 
 #: The kinds of constraint a parameter can carry (see `Family.constraints`).
 CONSTRAINTS = ("positive", "nonnegative", "unit", "real")

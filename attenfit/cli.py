@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 from ._errors import AttenfitError
 
-__all__ = ["get_parser", "main", "EXIT_OK", "EXIT_ERROR", "EXIT_BAD_INPUT", "EXIT_NOT_CONVERGED"]
+__all__ = ["EXIT_BAD_INPUT", "EXIT_ERROR", "EXIT_NOT_CONVERGED", "EXIT_OK", "get_parser", "main"]
 
 EXIT_OK, EXIT_ERROR, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED = 0, 1, 2, 3
 
