@@ -67,13 +67,13 @@ class Family(eqx.Module):
 
     @classmethod
     def param_names(cls) -> tuple[str, ...]:
-        """The parameter names, in field order."""
-        return tuple(f.name for f in dataclasses.fields(cls))
+        """The parameter names, in field order (static fields are options, not parameters)."""
+        return tuple(f.name for f in _param_fields(cls))
 
     @classmethod
     def defaults(cls) -> dict[str, Any]:
         """The default parameter values."""
-        return {f.name: f.default for f in dataclasses.fields(cls)}
+        return {f.name: f.default for f in _param_fields(cls)}
 
     @classmethod
     def constraint(cls, param: str) -> str:
@@ -116,6 +116,11 @@ class Family(eqx.Module):
             "monotone": cls.monotone,
             "tends_to_inverse_square": cls.tends_to_inverse_square,
         }
+
+
+def _param_fields(cls: type) -> list[dataclasses.Field]:
+    """The dataclass fields of `cls` that are parameters (not `eqx.field(static=True)`)."""
+    return [f for f in dataclasses.fields(cls) if not f.metadata.get("static", False)]
 
 
 def _plain(value: Any) -> Any:
