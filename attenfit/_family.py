@@ -1,7 +1,5 @@
 """The abstract `Family` base and the registry of named families."""
 
-from __future__ import annotations
-
 import abc
 import dataclasses
 import inspect
@@ -88,7 +86,7 @@ class Family(eqx.Module):
         """The parameter values, by name."""
         return {name: getattr(self, name) for name in self.param_names()}
 
-    def replace(self, **values: Any) -> Family:
+    def replace(self, **values: Any) -> "Family":
         """A copy with some parameters replaced."""
         names = self.param_names()
         for key in values:
