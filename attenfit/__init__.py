@@ -18,6 +18,32 @@ from ._family import list_families as list_families
 from ._family import register_family as register_family
 
 # --- families (issue 2) ---
+from . import directional as directional
+from . import families as families
+from .directional import lambert_disk as lambert_disk
+from .directional import spot_frostbite as spot_frostbite
+from .directional import spot_t as spot_t
+from .directional import spot_threejs as spot_threejs
+from .families import Clamped as Clamped
+from .families import CryEngineLinear as CryEngineLinear
+from .families import DiskFacing as DiskFacing
+from .families import FrostbiteWindow as FrostbiteWindow
+from .families import GltfRange as GltfRange
+from .families import Godot as Godot
+from .families import InverseSquare as InverseSquare
+from .families import JustCause2 as JustCause2
+from .families import MadamsCutoff as MadamsCutoff
+from .families import MadamsRational as MadamsRational
+from .families import MadamsSphere as MadamsSphere
+from .families import MadamsTan as MadamsTan
+from .families import Polynomial as Polynomial
+from .families import Spline as Spline
+from .families import ThreeJS as ThreeJS
+from .families import UnrealEpsilon as UnrealEpsilon
+from .families import UnrealExponent as UnrealExponent
+from .families import UnrealWindow as UnrealWindow
+from .families import Yuksel as Yuksel
+from .families import YukselAdhoc as YukselAdhoc
 # --- emitters, irradiance, quadrature, datasets (issue 3) ---
 # --- fitting (issue 5) ---
 # --- metrics and report (issue 6) ---

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
+import jax
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
@@ -24,8 +25,8 @@ class Family(eqx.Module):
     `d` is the distance from the light's centre (DESIGN.md section 1). A point light of
     intensity `I` gives irradiance `E = I * g * f(d) * max(0, n.l)`. A family's fields are
     its parameters (scalars, or arrays with a leading batch axis for `fit_many`); calling
-    it broadcasts over `d` and returns the dtype of `d` (or the wider of `d` and the
-    parameters). Every family is `jit`-, `vmap`- and `grad`-able and constructs with no
+    it broadcasts over `d` and returns the dtype of `d` when `d` is a float array (else the
+    widest float dtype of the parameters, else JAX's default float). Every family is `jit`-, `vmap`- and `grad`-able and constructs with no
     arguments.
 
     Subclasses are final: they declare their parameters as fields with defaults, the class
@@ -58,10 +59,36 @@ class Family(eqx.Module):
     #: Parameters with units of length: under d -> s d and p -> s p for each of them, the
     #: curve scales as f -> f / s^2 (or is unchanged for a family with a free `scale`).
     length_params: ClassVar[tuple[str, ...]] = ()
+    #: Powers of length of the other dimensional parameters (e.g. ``{"eps": 2}`` for an area,
+    #: ``{"scale": -2}`` for a free scale in 1/length^2); unlisted ones are dimensionless.
+    units: ClassVar[Mapping[str, int]] = {}
+    #: True when the curve obeys the scale law exactly: under d -> s d and every parameter
+    #: p -> s^(its length power) p, f -> f / s^2. False for families with a hard-coded absolute
+    #: length (Godot's 1e-4 m clamp, three.js's 0.01 floor) or fixed knots (`spline`).
+    scale_covariant: ClassVar[bool] = False
+
+    def __check_init__(self):
+        """Refuse concrete parameter values that break their constraint (tracers pass)."""
+        for name in self.param_names():
+            _check_param(type(self).name, name, getattr(self, name), self.constraint(name))
 
     @abc.abstractmethod
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         """Evaluate `f(d)`."""
+
+    def range_distance(self) -> Any:
+        """The centre distance at which the curve reaches 0 for good, or None (no range).
+
+        The value of `range_param` unless a family says otherwise (Madams' warped families
+        measure their `d_max` from the light's surface, `madams_cutoff` derives its range).
+        """
+        return None if self.range_param is None else getattr(self, self.range_param)
+
+    @classmethod
+    def length_power(cls, param: str) -> int:
+        """The power of length in the unit of `param` (1 for `length_params`, else `units`)."""
+        cls.constraint(param)  # raises on an unknown name
+        return 1 if param in cls.length_params else int(cls.units.get(param, 0))
 
     @classmethod
     def param_names(cls) -> tuple[str, ...]:
@@ -71,7 +98,10 @@ class Family(eqx.Module):
     @classmethod
     def defaults(cls) -> dict[str, Any]:
         """The default parameter values."""
-        return {f.name: f.default for f in _param_fields(cls)}
+        return {
+            f.name: f.default if f.default is not dataclasses.MISSING else f.default_factory()
+            for f in _param_fields(cls)
+        }
 
     @classmethod
     def constraint(cls, param: str) -> str:
@@ -113,7 +143,35 @@ class Family(eqx.Module):
             "window": cls.window,
             "monotone": cls.monotone,
             "tends_to_inverse_square": cls.tends_to_inverse_square,
+            "length_params": list(cls.length_params),
         }
+
+
+def _check_param(family: str, name: str, value: Any, kind: str) -> None:
+    """Raise BadValueError/BadTypeError if a concrete parameter value breaks `kind`."""
+    if isinstance(value, jax.core.Tracer):
+        return
+    try:
+        arr = np.asarray(value)
+    except Exception:
+        return  # an unusual leaf (e.g. an abstract placeholder): the maths will tell
+    if arr.dtype == object or not (
+        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
+    ):
+        raise BadTypeError(
+            f"family {family!r}: parameter {name!r} must be a real number or array, got {value!r}"
+        )
+    arr = arr.astype(np.float64)
+    bad = None
+    if kind == "positive" and np.any(arr <= 0):
+        bad = "> 0"
+    elif kind == "nonnegative" and np.any(arr < 0):
+        bad = ">= 0"
+    elif kind == "unit" and np.any((arr <= 0) | (arr >= 1)):
+        bad = "strictly between 0 and 1"
+    if bad is not None:
+        shown = arr.item() if arr.ndim == 0 else arr.tolist()
+        raise BadValueError(f"family {family!r}: parameter {name!r} must be {bad}, got {shown}")
 
 
 def _param_fields(cls: type) -> list[dataclasses.Field]:
