@@ -46,6 +46,14 @@ from .families import Yuksel as Yuksel
 from .families import YukselAdhoc as YukselAdhoc
 # --- emitters, irradiance, quadrature, datasets (issue 3) ---
 # --- fitting (issue 5) ---
+from ._fit import LOSSES as LOSSES
+from ._fit import SOLVERS as SOLVERS
+from ._fit import FitResult as FitResult
+from ._fit import FitResults as FitResults
+from ._fit import fit as fit
+from ._fit import fit_dataset as fit_dataset
+from ._fit import fit_many as fit_many
+
 # --- metrics and report (issue 6) ---
 # --- cost, scene, export (issue 7) ---
 

@@ -1,0 +1,897 @@
+"""Least-squares fits of attenuation families with optimistix: one curve, a dataset, or a batch.
+
+`fit` fits a family instance (its field values are the start) or a user's `(fn, params)`
+pair to attenuation samples `target` at distances `d`; `fit_dataset` fits the point-light
+model `E = I g f(d) max(0, n.l)` to a dataset's irradiance; `fit_many` solves thousands of
+independent problems in one jitted, vmapped solve.
+
+How (DESIGN.md section 4):
+- The solver moves unconstrained coordinates (`attenfit._reparam`): `exp` for positive
+  parameters, a reflection for nonnegative ones (so an optimum on 0 is reached exactly),
+  a sigmoid for unit ones. After the solve, a nonnegative parameter whose value 0 fits at
+  least as well is set to exactly 0 and reported as on its bound.
+- The start is the best of the caller's start and a few data-derived candidates
+  (`attenfit._guess`), evaluated inside the compiled solve.
+- Residuals: `relative` = w (f - t)/t, `log` = w (log f - log t), `absolute` = w (f - t);
+  `weights` w multiply residuals (like `1/sigma` in `scipy.optimize.curve_fit`). The
+  reported `loss` is `0.5 * sum(residual^2)`, as optimistix and
+  `scipy.optimize.least_squares` define it.
+- Failure is data: the solve runs with `throw=False` and a non-converged fit comes back
+  with `converged=False` and optimistix's message.
+- Compiled solves are cached by (model structure, free, solver, loss, tolerances, shapes,
+  dtype), so a second fit of the same kind does not re-trace.
+- Covariance as `curve_fit(absolute_sigma=False)`: `pinv(J^T J) * sum(r^2) / (n - k)`, with
+  J the Jacobian of the residuals with respect to the free parameters (not the internal
+  coordinates) at the solution.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from jaxtyping import Array, ArrayLike, Float
+
+from ._errors import BadTypeError, BadValueError, UnknownNameError
+from ._family import Family
+from ._guess import linear_candidate, scale_candidates
+from ._reparam import to_internal, to_param
+
+__all__ = ["LOSSES", "SOLVERS", "FitResult", "FitResults", "fit", "fit_dataset", "fit_many"]
+
+#: Loss names accepted by `fit` (see the module docstring for the residuals).
+LOSSES = ("relative", "log", "absolute")
+
+
+def _lm(rtol: float, atol: float):
+    return optx.LevenbergMarquardt(rtol=rtol, atol=atol)
+
+
+def _dogleg(rtol: float, atol: float):
+    return optx.Dogleg(rtol=rtol, atol=atol)
+
+
+def _gauss_newton(rtol: float, atol: float):
+    return optx.GaussNewton(rtol=rtol, atol=atol)
+
+
+def _bfgs(rtol: float, atol: float):
+    return optx.BFGS(rtol=rtol, atol=atol)
+
+
+#: Solver names accepted by `fit`, with the optimistix solver each builds.
+SOLVERS: dict[str, Callable[[float, float], Any]] = {
+    "levenberg_marquardt": _lm,
+    "dogleg": _dogleg,
+    "gauss_newton": _gauss_newton,
+    "bfgs": _bfgs,
+}
+
+_CONSTRAINT_WORDS = {
+    "positive": "> 0",
+    "nonnegative": ">= 0",
+    "unit": "strictly between 0 and 1",
+    "real": "finite",
+}
+
+
+# ----------------------------------------------------------------------------- the model
+@dataclasses.dataclass(frozen=True)
+class _Spec:
+    """The static structure of a model: what a compiled solve depends on."""
+
+    key: Any  # hashable: family treedef or the user's fn
+    evaluate: Callable[[Array, dict[str, Array]], Array] = dataclasses.field(compare=False)
+    names: tuple[str, ...]
+    kinds: tuple[str, ...]
+    shapes: tuple[tuple[int, ...], ...]  # per-problem shape of each parameter
+    family: str | None
+    length_params: tuple[str, ...]
+
+
+def _family_spec(model: Family, batched: bool) -> tuple[_Spec, dict[str, np.ndarray]]:
+    cls = type(model)
+    names = cls.param_names()
+    values = {n: np.asarray(getattr(model, n)) for n in names}
+    for n, v in values.items():
+        if not (np.issubdtype(v.dtype, np.floating) or np.issubdtype(v.dtype, np.integer)):
+            raise BadTypeError(
+                f"parameter {n!r} of {cls.name!r} must be a real number, got dtype {v.dtype}"
+            )
+    shapes = ()  # set by _prepare, which knows the batch size
+    treedef = jax.tree_util.tree_structure(model)
+    template = model
+
+    def evaluate(d, params):
+        m = eqx.tree_at(
+            lambda m: [getattr(m, n) for n in names],
+            template,
+            [params[n] for n in names],
+            is_leaf=lambda x: x is None,
+        )
+        return m(d)
+
+    spec = _Spec(
+        key=(cls, treedef),
+        evaluate=evaluate,
+        names=names,
+        kinds=tuple(cls.constraint(n) for n in names),
+        shapes=shapes,
+        family=getattr(cls, "name", None),
+        length_params=tuple(getattr(cls, "length_params", ())),
+    )
+    return spec, values
+
+
+def _pair_spec(model: tuple, batched: bool) -> tuple[_Spec, dict[str, np.ndarray]]:
+    if len(model) not in (2, 3):
+        raise BadTypeError(
+            "model must be a Family instance or a pair (fn, params) (optionally with a "
+            f"third item, constraints), got a tuple of length {len(model)}"
+        )
+    fn, params = model[0], model[1]
+    constraints = dict(model[2]) if len(model) == 3 else {}
+    if not callable(fn):
+        raise BadTypeError(f"model's first item must be a function fn(d, params), got {fn!r}")
+    if not isinstance(params, Mapping) or not params:
+        raise BadTypeError(
+            f"model's second item must be a non-empty dict of parameter start values, got {params!r}"
+        )
+    names = tuple(params)
+    for n in names:
+        if not isinstance(n, str):
+            raise BadTypeError(f"parameter names must be strings, got {n!r}")
+    for n, kind in constraints.items():
+        if n not in names:
+            raise UnknownNameError(
+                f"constraint given for {n!r}, which is not in params {list(names)}"
+            )
+        if kind not in _CONSTRAINT_WORDS:
+            raise BadValueError(
+                f"constraint {kind!r} of {n!r} is not one of {list(_CONSTRAINT_WORDS)}"
+            )
+    values = {}
+    for n in names:
+        try:
+            v = np.asarray(params[n])
+        except Exception as exc:
+            raise BadTypeError(f"parameter {n!r} must be a number, got {params[n]!r}") from exc
+        if not (np.issubdtype(v.dtype, np.floating) or np.issubdtype(v.dtype, np.integer)):
+            raise BadTypeError(f"parameter {n!r} must be a real number, got {params[n]!r}")
+        values[n] = v
+    shapes = ()  # set by _prepare, which knows the batch size
+
+    def evaluate(d, p):
+        return fn(d, p)
+
+    spec = _Spec(
+        key=(fn, tuple(sorted(constraints.items()))),
+        evaluate=evaluate,
+        names=names,
+        kinds=tuple(constraints.get(n, "real") for n in names),
+        shapes=shapes,
+        family=None,
+        length_params=(),
+    )
+    return spec, values
+
+
+def _spec_of(model: Any, batched: bool) -> tuple[_Spec, dict[str, np.ndarray]]:
+    if isinstance(model, Family):
+        return _family_spec(model, batched)
+    if isinstance(model, type) and issubclass(model, Family):
+        raise BadTypeError(
+            f"model must be a Family instance, got the class {model.__name__}; call it: {model.__name__}()"
+        )
+    if isinstance(model, tuple):
+        return _pair_spec(model, batched)
+    raise BadTypeError(
+        f"model must be a Family instance or a pair (fn, params), got {type(model).__name__}"
+    )
+
+
+# ----------------------------------------------------------------------------- validation
+def _float_array(name: str, x: Any) -> np.ndarray:
+    try:
+        arr = np.asarray(x)
+    except Exception as exc:
+        raise BadTypeError(f"{name} must be an array of floats, got {type(x).__name__}") from exc
+    if not np.issubdtype(arr.dtype, np.floating):
+        raise BadTypeError(f"{name} must be a floating-point array, got dtype {arr.dtype}")
+    return arr
+
+
+def _validate_data(
+    d: Any, target: Any, weights: Any, loss: str, ndim: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    d = _float_array("d", d)
+    target = _float_array("target", target)
+    what = "(n,)" if ndim == 1 else "(batch, n)"
+    if target.ndim != ndim:
+        raise BadValueError(f"target must have shape {what}, got shape {target.shape}")
+    if target.size == 0:
+        raise BadValueError(f"target is empty (shape {target.shape}); nothing to fit")
+    if d.shape != target.shape and not (ndim == 2 and d.shape == target.shape[1:]):
+        raise BadValueError(
+            f"d has shape {d.shape} but target has shape {target.shape}; they must match"
+        )
+    if not np.all(np.isfinite(d)) or np.any(d < 0):
+        bad = d[~(np.isfinite(d) & (d >= 0))].flat[0]
+        raise BadValueError(f"d must be finite distances >= 0, got {bad!r}")
+    if not np.all(np.isfinite(target)):
+        raise BadValueError(f"target must be finite, got {target[~np.isfinite(target)].flat[0]!r}")
+    if loss == "absolute":
+        if np.any(target < 0):
+            raise BadValueError(f"target must be >= 0, got {target[target < 0].flat[0]!r}")
+    elif np.any(target <= 0):
+        raise BadValueError(
+            f"target must be > 0 for the {loss!r} loss, got {target[target <= 0].flat[0]!r} "
+            "(use loss='absolute' for zero targets)"
+        )
+    if weights is not None:
+        weights = _float_array("weights", weights)
+        if weights.shape != target.shape and not (ndim == 2 and weights.shape == target.shape[1:]):
+            raise BadValueError(
+                f"weights has shape {weights.shape} but target has shape {target.shape}; they must match"
+            )
+        if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+            bad = weights[~(np.isfinite(weights) & (weights >= 0))].flat[0]
+            raise BadValueError(f"weights must be finite and >= 0, got {bad!r}")
+        if not np.all(np.any(weights > 0, axis=-1)):
+            raise BadValueError("weights are all 0 (in at least one problem); nothing to fit")
+    return d, target, weights
+
+
+def _validate_options(
+    spec: _Spec,
+    values: Mapping[str, np.ndarray],
+    free: Any,
+    loss: str,
+    solver: Any,
+    max_steps: Any,
+    n: int,
+    batch: int | None,
+) -> tuple[str, ...]:
+    if not isinstance(loss, str) or loss not in LOSSES:
+        raise UnknownNameError(f"unknown loss {loss!r}; known losses: {', '.join(LOSSES)}")
+    if isinstance(solver, str):
+        if solver not in SOLVERS:
+            raise UnknownNameError(
+                f"unknown solver {solver!r}; known solvers: {', '.join(SOLVERS)}"
+            )
+    elif not isinstance(solver, (optx.AbstractLeastSquaresSolver, optx.AbstractMinimiser)):
+        raise BadTypeError(
+            f"solver must be one of {list(SOLVERS)} or an optimistix least-squares solver or "
+            f"minimiser, got {solver!r}"
+        )
+    if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
+        raise BadValueError(f"max_steps must be a positive integer, got {max_steps!r}")
+    if isinstance(free, str):
+        free = (free,)
+    free = tuple(free)
+    if not free:
+        raise BadValueError("free is empty: name at least one parameter to fit")
+    for name in free:
+        if name not in spec.names:
+            raise UnknownNameError(
+                f"free names {name!r}, which the model does not have; its parameters are {list(spec.names)}"
+            )
+    if len(set(free)) != len(free):
+        raise BadValueError(f"free names a parameter twice: {list(free)}")
+    k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
+    if n < k:
+        raise BadValueError(f"{n} samples cannot determine {k} free parameter values")
+    for name, kind in zip(spec.names, spec.kinds, strict=True):
+        v = values[name]
+        if not np.all(np.isfinite(v)):
+            raise BadValueError(f"start value of {name!r} is not finite: {v!r}")
+        ok = {
+            "positive": v >= 0,
+            "nonnegative": v >= 0,
+            "unit": (v >= 0) & (v <= 1),
+            "real": np.ones_like(v, bool),
+        }[kind]
+        if not np.all(ok):
+            raise BadValueError(
+                f"start value of {name!r} must be {_CONSTRAINT_WORDS[kind]}, got {v[~ok].flat[0]!r}"
+            )
+    return free
+
+
+def _dtype_of(*arrays: np.ndarray) -> np.dtype:
+    """The JAX float dtype a fit runs in: the widest input float, as JAX will hold it."""
+    wide = np.result_type(*arrays)
+    return np.dtype(jax.dtypes.canonicalize_dtype(wide))
+
+
+def _default_tolerances(dtype: np.dtype, rtol: float | None, atol: float | None):
+    eps = float(np.finfo(dtype).eps)
+    default = 1e-8 if eps < 1e-10 else max(1e-5, 100 * eps)
+    return (default if rtol is None else float(rtol)), (default if atol is None else float(atol))
+
+
+# ----------------------------------------------------------------------------- compiled solve
+def _residual_fn(spec: _Spec, loss: str):
+    def residual(params, d, target, weights):
+        f = spec.evaluate(d, params).astype(d.dtype)
+        if loss == "relative":
+            r = (f - target) / target
+        elif loss == "log":
+            tiny = jnp.finfo(d.dtype).tiny
+            r = jnp.log(jnp.where(f > tiny, f, tiny)) - jnp.log(target)
+        else:
+            r = f - target
+        return weights * r
+
+    return residual
+
+
+def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, atol):
+    """The single-problem solve: arrays in, arrays out (vmappable)."""
+    residual = _residual_fn(spec, loss)
+    index = {n: i for i, n in enumerate(spec.names)}
+    sizes = [math.prod(spec.shapes[index[p]]) for p in free]
+    offsets = np.cumsum([0, *sizes])
+    kinds = dict(zip(spec.names, spec.kinds, strict=True))
+    free_lengths = tuple(p for p in spec.length_params if p in free and kinds[p] == "positive")
+    flat_kinds = [kinds[p] for p, s in zip(free, sizes, strict=True) for _ in range(s)]
+
+    def split(vec, values):
+        out = dict(values)
+        for i, p in enumerate(free):
+            out[p] = vec[offsets[i] : offsets[i + 1]].reshape(spec.shapes[index[p]])
+        return out
+
+    def to_u(params):
+        return jnp.concatenate([to_internal(kinds[p], params[p]).reshape(-1) for p in free])
+
+    def from_u(u, values):
+        out = dict(values)
+        for i, p in enumerate(free):
+            piece = u[offsets[i] : offsets[i + 1]].reshape(spec.shapes[index[p]])
+            out[p] = to_param(kinds[p], piece)
+        return out
+
+    def problem(values, d, target, weights):
+        dtype = d.dtype
+
+        def res_u(u, _):
+            return residual(from_u(u, values), d, target, weights)
+
+        def cost(u):
+            r = res_u(u, None)
+            c = 0.5 * jnp.sum(r * r)
+            return jnp.where(jnp.isfinite(c), c, jnp.inf)
+
+        u_given = to_u(values)
+        cands = [values]
+        if guess:
+            cands += scale_candidates(values, free_lengths)
+            lin = linear_candidate(spec.family or "", values, free, kinds, d, target, weights, loss)
+            if lin is not None:
+                cands.append(lin)
+        if len(cands) > 1:
+            us = jnp.stack([to_u(c) for c in cands])
+            costs = jax.vmap(cost)(us)
+            u0 = us[jnp.argmin(costs)]
+        else:
+            u0 = u_given
+        r0 = res_u(u0, None)
+        start_finite = jnp.all(jnp.isfinite(r0))
+        sol = optx.least_squares(res_u, solver_obj, u0, None, max_steps=max_steps, throw=False)
+        u = sol.value
+        best = cost(u)
+        # Snap nonnegative parameters to their bound where 0 fits at least as well.
+        at_bound = []
+        for j, kind in enumerate(flat_kinds):
+            if kind == "nonnegative":
+                u_zero = u.at[j].set(0)
+                c0 = cost(u_zero)
+                # 0 is as good within the tolerances: the cost rises by at most rtol
+                # relative plus an RMS residual change of atol.
+                snap = c0 <= best * (1 + rtol) + 0.5 * d.shape[-1] * atol**2
+                u = jnp.where(snap, u_zero, u)
+                best = jnp.where(snap, jnp.minimum(c0, best), best)
+                at_bound.append(snap)
+            else:
+                at_bound.append(jnp.zeros((), bool))
+        final = from_u(u, values)
+        pvec = jnp.concatenate([final[p].reshape(-1) for p in free])
+        jac = jax.jacfwd(lambda pv: residual(split(pv, final), d, target, weights))(pvec)
+        f = spec.evaluate(d, final).astype(dtype)
+        pos = target > 0
+        rel = jnp.where(pos, jnp.abs(f - target) / jnp.where(pos, target, 1), 0)
+        npos = jnp.maximum(jnp.sum(pos), 1).astype(dtype)
+        return dict(
+            pvec=pvec,
+            result=sol.result._value,
+            steps=sol.stats["num_steps"],
+            start_finite=start_finite,
+            start_loss=cost(u0),
+            loss=best,
+            jtj=jac.T @ jac,
+            max_rel=jnp.max(rel),
+            rms_rel=jnp.sqrt(jnp.sum(rel * rel) / npos),
+            at_bound=jnp.stack(at_bound),
+        )
+
+    return problem
+
+
+_COMPILED: dict[Any, Callable] = {}
+
+
+def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched):
+    key = (
+        spec.key,
+        spec.names,
+        spec.shapes,
+        free,
+        loss,
+        solver,
+        max_steps,
+        rtol,
+        atol,
+        guess,
+        batched,
+    )
+    fn = _COMPILED.get(key)
+    if fn is None:
+        solver_obj = SOLVERS[solver](rtol, atol) if isinstance(solver, str) else solver
+        problem = _build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol)
+        fn = jax.jit(jax.vmap(problem) if batched else problem)
+        _COMPILED[key] = fn
+    return fn
+
+
+# ----------------------------------------------------------------------------- results
+_MESSAGES = tuple(optx.RESULTS._index_to_message)
+_RESULT_NAMES = {item._value.item(): name for name, item in optx.RESULTS._name_to_item.items()}
+
+
+def _message(
+    code: int, start_finite: bool, loss: float, at_bound: Sequence[str]
+) -> tuple[bool, str]:
+    notes = []
+    if at_bound:
+        notes.append(f"on its bound 0: {', '.join(at_bound)}")
+    if not start_finite:
+        msg = "the residuals are not finite (NaN or inf) at the starting parameters"
+        if code:
+            msg += f"; optimistix: {_MESSAGES[code].splitlines()[0]}"
+        return False, msg
+    if code:
+        return False, "; ".join([f"optimistix: {' '.join(_MESSAGES[code].split())}", *notes])
+    if not math.isfinite(loss):
+        return False, "the loss at the solution is not finite"
+    return True, "; ".join(["converged", *notes])
+
+
+def _covariance(jtj: np.ndarray, loss: float, n: int, k: int) -> np.ndarray:
+    """`pinv(J^T J) * sum(r^2) / (n - k)`, as `scipy.optimize.curve_fit` (inf if n == k)."""
+    jtj = np.asarray(jtj, dtype=np.float64)
+    if not np.all(np.isfinite(jtj)):
+        return np.full((k, k), np.inf)
+    w, v = np.linalg.eigh(jtj)
+    smax = math.sqrt(max(w.max(initial=0.0), 0.0))
+    keep = np.sqrt(np.clip(w, 0, None)) > np.finfo(np.float64).eps * max(n, k) * smax
+    if smax == 0 or not keep.any():
+        return np.full((k, k), np.inf)
+    inv = (v[:, keep] / w[keep]) @ v[:, keep].T
+    if n <= k:
+        return np.full((k, k), np.inf)
+    return inv * (2 * loss / (n - k))
+
+
+@dataclasses.dataclass(frozen=True)
+class FitResult:
+    """The outcome of one fit: fitted model and parameters, whether and how it converged.
+
+    Attributes:
+        model: the fitted model: a family instance with the fitted values, or for a
+            `(fn, params)` model the pair `(fn, fitted params)`.
+        params: every parameter (fitted and fixed) as Python floats (lists for arrays).
+        converged: whether optimistix reported success with finite residuals.
+        message: "converged", or why not (optimistix's message); notes parameters on bound.
+        steps: solver steps taken.
+        loss: `0.5 * sum(residual^2)` at the solution.
+        metrics: `max_rel_error`, `rms_rel_error` (unweighted |f - t| / t over the fitted
+            samples with t > 0), `start_loss`, `n` (samples), `k` (free values).
+        covariance: `(k, k)` covariance of the free parameters, in `free` order (curve_fit's).
+        free: the fitted parameter names. at_bound: those that ended on a bound.
+        objective: the loss kind; solver: its name; dtype: the float dtype of the fit.
+    """
+
+    model: Any
+    params: dict[str, Any]
+    converged: bool
+    message: str
+    steps: int
+    loss: float
+    metrics: dict[str, float]
+    covariance: np.ndarray
+    free: tuple[str, ...]
+    at_bound: tuple[str, ...] = ()
+    objective: str = "relative"
+    solver: str = "levenberg_marquardt"
+    dtype: str = "float64"
+
+    @property
+    def stderr(self) -> dict[str, float]:
+        """Standard errors of the free (scalar) parameters: sqrt of the covariance diagonal."""
+        diag = np.sqrt(np.abs(np.diag(self.covariance)))
+        out, i = {}, 0
+        for p in self.free:
+            size = np.size(self.params[p])
+            out[p] = float(diag[i]) if size == 1 else diag[i : i + size].tolist()
+            i += size
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready summary (no model object; `family` names the family, if any)."""
+
+        def plain(x):
+            x = float(x)
+            return x if math.isfinite(x) else str(x)
+
+        name = getattr(self.model, "name", None) if isinstance(self.model, Family) else None
+        return {
+            "family": name,
+            "params": self.params,
+            "free": list(self.free),
+            "stderr": {k: v for k, v in self.stderr.items()},
+            "converged": self.converged,
+            "message": self.message,
+            "steps": self.steps,
+            "loss": plain(self.loss),
+            "objective": self.objective,
+            "solver": self.solver,
+            "dtype": self.dtype,
+            "at_bound": list(self.at_bound),
+            "metrics": {k: plain(v) for k, v in self.metrics.items()},
+            "covariance": [[plain(x) for x in row] for row in np.asarray(self.covariance)],
+        }
+
+    def __str__(self) -> str:
+        name = (
+            getattr(self.model, "name", "custom model")
+            if isinstance(self.model, Family)
+            else "custom model (fn, params)"
+        )
+        m = self.metrics
+        lines = [
+            f"[[Fit]] {name}",
+            f"    solver     = {self.solver}, loss = {self.objective}, dtype = {self.dtype}",
+            f"    converged  = {self.converged} ({self.message.splitlines()[0]})",
+            f"    steps      = {self.steps}",
+            f"    samples    = {int(m.get('n', 0))}, free values = {int(m.get('k', 0))}",
+            f"    loss       = {self.loss:.6g}  (0.5 * sum of squared residuals)",
+            f"    rel. error = max {m.get('max_rel_error', math.nan):.3g}, rms {m.get('rms_rel_error', math.nan):.3g}",
+            "[[Parameters]]",
+        ]
+        se = self.stderr
+        for p, v in self.params.items():
+            if p in self.free and np.size(v) == 1:
+                s = se[p]
+                rel = f" ({100 * s / abs(v):.2f}%)" if v != 0 and math.isfinite(s) else ""
+                bound = "  (on bound)" if p in self.at_bound else ""
+                lines.append(f"    {p:<10} = {v:.8g} +/- {s:.3g}{rel}{bound}")
+            elif p in self.free:
+                lines.append(f"    {p:<10} = {v}")
+            else:
+                lines.append(f"    {p:<10} = {v if np.size(v) > 1 else format(v, '.8g')}  (fixed)")
+        k = len(self.covariance)
+        if k > 1 and all(np.size(self.params[p]) == 1 for p in self.free):
+            cov = np.asarray(self.covariance)
+            sd = np.sqrt(np.abs(np.diag(cov)))
+            pairs = []
+            for i in range(k):
+                for j in range(i + 1, k):
+                    if sd[i] > 0 and sd[j] > 0 and np.isfinite(sd[i] * sd[j]):
+                        pairs.append(
+                            (abs(cov[i, j] / (sd[i] * sd[j])), cov[i, j] / (sd[i] * sd[j]), i, j)
+                        )
+            shown = [p for p in sorted(pairs, reverse=True) if p[0] > 0.1]
+            if shown:
+                lines.append("[[Correlations]] (|corr| > 0.1)")
+                for _, c, i, j in shown:
+                    lines.append(f"    C({self.free[i]}, {self.free[j]}) = {c:+.4f}")
+        return "\n".join(lines)
+
+
+def _python_value(v: np.ndarray) -> Any:
+    return float(v) if v.ndim == 0 else v.tolist()
+
+
+def _make_result(
+    spec, template, values, free, out, i, n, loss_kind, solver_name, dtype
+) -> FitResult:
+    """One FitResult from the (possibly batched) numpy outputs `out` at index `i`."""
+    pick = (lambda a: a) if i is None else (lambda a: a[i])
+    index = {nm: j for j, nm in enumerate(spec.names)}
+    pvec = np.asarray(pick(out["pvec"]))
+    params = {}
+    fitted = {}
+    off = 0
+    for nm in spec.names:
+        v = (
+            np.asarray(pick(values[nm]))
+            if i is not None and np.ndim(values[nm]) > len(spec.shapes[index[nm]])
+            else np.asarray(values[nm])
+        )
+        if nm in free:
+            size = math.prod(spec.shapes[index[nm]])
+            v = pvec[off : off + size].reshape(spec.shapes[index[nm]])
+            off += size
+        fitted[nm] = v
+        params[nm] = _python_value(v)
+    flat_names = [p for p in free for _ in range(math.prod(spec.shapes[index[p]]))]
+    bound_flags = np.asarray(pick(out["at_bound"]))
+    at_bound = tuple(dict.fromkeys(p for p, b in zip(flat_names, bound_flags, strict=True) if b))
+    code = int(pick(out["result"]))
+    loss = float(pick(out["loss"]))
+    converged, message = _message(code, bool(pick(out["start_finite"])), loss, at_bound)
+    k = len(pvec)
+    metrics = {
+        "max_rel_error": float(pick(out["max_rel"])),
+        "rms_rel_error": float(pick(out["rms_rel"])),
+        "start_loss": float(pick(out["start_loss"])),
+        "n": n,
+        "k": k,
+    }
+    cov = _covariance(pick(out["jtj"]), loss, n, k)
+    if isinstance(template, Family):
+        model = eqx.tree_at(
+            lambda m: [getattr(m, nm) for nm in spec.names],
+            template,
+            [jnp.asarray(fitted[nm], dtype) for nm in spec.names],
+            is_leaf=lambda x: x is None,
+        )
+    else:
+        model = (template[0], {nm: params[nm] for nm in spec.names})
+    return FitResult(
+        model=model,
+        params=params,
+        converged=converged,
+        message=message,
+        steps=int(pick(out["steps"])),
+        loss=loss,
+        metrics=metrics,
+        covariance=cov,
+        free=free,
+        at_bound=at_bound,
+        objective=loss_kind,
+        solver=solver_name,
+        dtype=str(np.dtype(dtype)),
+    )
+
+
+def _solver_name(solver) -> str:
+    return solver if isinstance(solver, str) else type(solver).__name__
+
+
+def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched):
+    ndim = 2 if batched else 1
+    d, target, weights = _validate_data(d, target, weights, loss, ndim)
+    spec, values = _spec_of(model, batched)
+    batch = target.shape[0] if batched else None
+    spec = dataclasses.replace(
+        spec,
+        shapes=tuple(
+            v.shape[1:] if batched and v.ndim >= 1 and v.shape[0] == batch else v.shape
+            for v in (values[nm] for nm in spec.names)
+        ),
+    )
+    if batched:
+        values = {
+            nm: np.broadcast_to(values[nm], (batch, *shape))
+            for nm, shape in zip(spec.names, spec.shapes, strict=True)
+        }
+    if free is None:
+        free = (
+            tuple(getattr(type(model), "default_free", ()))
+            if isinstance(model, Family)
+            else spec.names
+        )
+    n = target.shape[-1]
+    free = _validate_options(spec, values, free, loss, solver, max_steps, n, batch)
+    dtype = _dtype_of(d, target, *(() if weights is None else (weights,)))
+    rtol, atol = _default_tolerances(dtype, rtol, atol)
+    return spec, values, free, d, target, weights, dtype, rtol, atol
+
+
+# ----------------------------------------------------------------------------- public API
+def fit(
+    model: Family | tuple,
+    d: Float[ArrayLike, " n"],
+    target: Float[ArrayLike, " n"],
+    *,
+    loss: str = "relative",
+    solver: str | Any = "levenberg_marquardt",
+    free: Sequence[str] | str | None = None,
+    weights: Float[ArrayLike, " n"] | None = None,
+    max_steps: int = 256,
+    rtol: float | None = None,
+    atol: float | None = None,
+    guess: bool = True,
+) -> FitResult:
+    """Fit `model` to attenuation samples `target` (1/length^2) at distances `d` (length).
+
+    Args:
+        model: a family instance (its field values are the start), or a pair `(fn, params)`
+            with `fn(d, params) -> f` any JAX function of a dict of parameters and `params`
+            a dict of start values (unconstrained unless a third item, a dict of
+            constraints "positive" | "nonnegative" | "unit" | "real", says otherwise).
+        d, target: samples, shape `(n,)`; `target > 0` (`>= 0` for the absolute loss).
+        loss: "relative" (default; attenuation spans decades), "log" or "absolute".
+        solver: "levenberg_marquardt" (default), "dogleg", "gauss_newton", "bfgs", or an
+            optimistix least-squares solver or minimiser instance.
+        free: the parameters to fit (default: the family's `default_free`, or every
+            parameter of a `(fn, params)` model); the others stay at their values.
+        weights: non-negative factors multiplying each residual (like `1/sigma`).
+        max_steps, rtol, atol: optimistix's; tolerances default to 1e-8 in float64 and
+            1e-5 in float32 (on the solver's internal coordinates).
+        guess: start from the best of the given start and data-derived candidates
+            (`attenfit._guess`); False starts exactly at the given values.
+
+    Returns:
+        A `FitResult`. Non-convergence is reported there, never raised. Bad arguments
+        raise `BadValueError`, `BadTypeError` or `UnknownNameError` before any compilation.
+    """
+    spec, values, free, d, target, weights, dtype, rtol, atol = _prepare(
+        model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched=False
+    )
+    w = np.ones_like(target, dtype=dtype) if weights is None else weights.astype(dtype)
+    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), False)
+    jvalues = {k: jnp.asarray(v, dtype) for k, v in values.items()}
+    out = fn(jvalues, jnp.asarray(d, dtype), jnp.asarray(target, dtype), jnp.asarray(w, dtype))
+    out = jax.device_get(out)
+    return _make_result(
+        spec, model, values, free, out, None, target.shape[-1], loss, _solver_name(solver), dtype
+    )
+
+
+class FitResults(Sequence):
+    """Per-problem results of `fit_many`: a sequence of `FitResult` plus batched arrays.
+
+    `results[i]` builds the i-th `FitResult` on demand; `params` (name -> array with a
+    leading batch axis), `converged`, `steps` and `loss` are arrays over the batch.
+    """
+
+    def __init__(self, spec, template, values, free, out, n, loss_kind, solver_name, dtype):
+        self._args = (spec, template, values, free, out, n, loss_kind, solver_name, dtype)
+        self._out = out
+        self.free = free
+        batch = len(out["loss"])
+        index = {nm: j for j, nm in enumerate(spec.names)}
+        self.params: dict[str, np.ndarray] = {}
+        off = 0
+        for nm in spec.names:
+            shape = spec.shapes[index[nm]]
+            if nm in free:
+                size = math.prod(shape)
+                self.params[nm] = out["pvec"][:, off : off + size].reshape((batch, *shape))
+                off += size
+            else:
+                self.params[nm] = np.broadcast_to(values[nm], (batch, *shape))
+        codes = out["result"]
+        self.converged: np.ndarray = (codes == 0) & out["start_finite"] & np.isfinite(out["loss"])
+        self.steps: np.ndarray = out["steps"]
+        self.loss: np.ndarray = out["loss"]
+
+    def __len__(self) -> int:
+        return len(self._out["loss"])
+
+    def __getitem__(self, i):  # type: ignore[override]
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self)))]
+        i = range(len(self))[i]
+        spec, template, values, free, out, n, loss_kind, solver_name, dtype = self._args
+        if isinstance(template, Family):
+            one = eqx.tree_at(
+                lambda m: [getattr(m, nm) for nm in spec.names],
+                template,
+                [np.asarray(values[nm][i]) for nm in spec.names],
+                is_leaf=lambda x: x is None,
+            )
+        else:
+            one = (template[0], {nm: values[nm][i] for nm in spec.names})
+        return _make_result(spec, one, values, free, out, i, n, loss_kind, solver_name, dtype)
+
+    def __repr__(self) -> str:
+        return f"FitResults({len(self)} fits, {int(self.converged.sum())} converged)"
+
+
+def fit_many(
+    model: Family | tuple,
+    d: Float[ArrayLike, "batch n"] | Float[ArrayLike, " n"],
+    target: Float[ArrayLike, "batch n"],
+    *,
+    loss: str = "relative",
+    solver: str | Any = "levenberg_marquardt",
+    free: Sequence[str] | str | None = None,
+    weights: Float[ArrayLike, "batch n"] | None = None,
+    max_steps: int = 256,
+    rtol: float | None = None,
+    atol: float | None = None,
+    guess: bool = True,
+) -> FitResults:
+    """Fit `batch` independent problems in one jitted, vmapped solve.
+
+    The model's fields (or the `(fn, params)` values) carry a leading batch axis, or are
+    scalars shared by every problem as the start; `d` is `(batch, n)` or `(n,)` (shared),
+    `target` and `weights` are `(batch, n)`. Options as `fit`. Returns `FitResults`:
+    `results[i]` is the i-th problem's `FitResult`, equal to what `fit` gives for it.
+    """
+    spec, values, free, d, target, weights, dtype, rtol, atol = _prepare(
+        model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched=True
+    )
+    batch, n = target.shape
+    bvalues = values
+    d = np.broadcast_to(d, (batch, n))
+    w = np.ones((batch, n), dtype) if weights is None else np.broadcast_to(weights, (batch, n))
+    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), True)
+    jvalues = {k: jnp.asarray(v, dtype) for k, v in bvalues.items()}
+    out = fn(jvalues, jnp.asarray(d, dtype), jnp.asarray(target, dtype), jnp.asarray(w, dtype))
+    out = jax.device_get(out)
+    return FitResults(spec, model, bvalues, free, out, n, loss, _solver_name(solver), dtype)
+
+
+def fit_dataset(
+    model: Family | tuple,
+    dataset: Any,
+    *,
+    loss: str = "relative",
+    **options: Any,
+) -> FitResult:
+    """Fit the point-light model `E = weight * f(d)` to a dataset's irradiance.
+
+    `weight = I g max(0, n.l)` and `d` come from `dataset.weight()` and
+    `dataset.distance()` (the emitter's `point_light`); receivers with weight 0 (facing
+    away, or outside a spot's cone) are dropped. The residuals are those of `E`: for the
+    relative and log losses that is the relative error of `f` against `E / weight`; for the
+    absolute loss, `weight * (f - E / weight)`. Where the dataset has standard errors
+    (`stderr > 0`, Monte Carlo), each residual is divided by its standard error (samples
+    with stderr 0 in a partly noisy dataset get the smallest positive one). Other
+    options as `fit`; a `weights` option multiplies these.
+    """
+    try:
+        d = np.asarray(dataset.distance())
+        wgt = np.asarray(dataset.weight())
+        E = np.asarray(dataset.E)
+        stderr = np.asarray(dataset.stderr)
+    except AttributeError as exc:
+        raise BadTypeError(
+            f"dataset must be an attenfit.Dataset (with distance(), weight(), E, stderr), got {type(dataset).__name__}"
+        ) from exc
+    d, wgt, E, stderr = (a.reshape(-1) for a in (d, wgt, E, stderr))
+    keep = (wgt > 0) & np.isfinite(wgt)
+    if not keep.any():
+        raise BadValueError("no receiver in the dataset sees the light (every weight is 0)")
+    user_w = options.pop("weights", None)
+    if user_w is not None:
+        user_w = _float_array("weights", user_w).reshape(-1)
+        if user_w.shape != E.shape:
+            raise BadValueError(
+                f"weights has shape {user_w.shape}, the dataset has {E.shape[0]} receivers"
+            )
+    d, wgt, E, stderr = d[keep], wgt[keep], E[keep], stderr[keep]
+    target = E / wgt
+    if loss == "absolute":
+        w = wgt.copy()
+    else:
+        w = np.ones_like(E)
+    if np.any(stderr > 0):
+        s = np.where(stderr > 0, stderr, stderr[stderr > 0].min())
+        w = w / s * (E if loss != "absolute" else 1)
+    if user_w is not None:
+        w = w * user_w[keep]
+    weights = None if np.all(w == 1) else w
+    return fit(model, d, target, loss=loss, weights=weights, **options)
