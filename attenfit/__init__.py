@@ -45,6 +45,17 @@ from .families import UnrealWindow as UnrealWindow
 from .families import Yuksel as Yuksel
 from .families import YukselAdhoc as YukselAdhoc
 # --- emitters, irradiance, quadrature, datasets (issue 3) ---
+from . import quadrature as quadrature
+from ._dataset import Dataset as Dataset
+from ._dataset import facing_sweep as facing_sweep
+from ._dataset import plane_receivers as plane_receivers
+from ._dataset import random_receivers as random_receivers
+from ._irradiance import irradiance as irradiance
+from .emitters import AbstractEmitter as AbstractEmitter
+from .emitters import CapsuleEmitter as CapsuleEmitter
+from .emitters import DiskEmitter as DiskEmitter
+from .emitters import SphereEmitter as SphereEmitter
+from .emitters import emitter_from_dict as emitter_from_dict
 # --- fitting (issue 5) ---
 from ._fit import LOSSES as LOSSES
 from ._fit import SOLVERS as SOLVERS

@@ -1,0 +1,508 @@
+"""Irradiance datasets: receivers, irradiance, its standard error and provenance; files and builders.
+
+A `Dataset` is the unit of ground truth every other part of attenfit consumes: the exact
+builders here (`facing_sweep`, `plane_receivers`, `random_receivers`, generator
+"attenfit.irradiance", stderr 0) and Mitsuba renders (`data_gen`, generator "mitsuba") make
+the same class. Saved as `.npz` (no pickles) with a JSON header: the emitter's `to_dict()`,
+the provenance and a format version.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import json
+import math
+import os
+import platform
+import zipfile
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._atomic import atomic_write
+from ._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
+from ._irradiance import irradiance
+from .emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter, emitter_from_dict
+
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "Dataset",
+    "facing_sweep",
+    "plane_receivers",
+    "random_receivers",
+]
+
+#: The `format` entry of every dataset file's header.
+FORMAT = "attenfit.dataset"
+#: The version of the file layout this module writes and reads.
+FORMAT_VERSION = 1
+_ARRAYS = ("points", "normals", "E", "stderr")
+
+
+def _versions() -> dict[str, str]:
+    from . import __version__
+
+    return {
+        "attenfit": __version__,
+        "jax": jax.__version__,
+        "numpy": np.__version__,
+        "python": platform.python_version(),
+    }
+
+
+def _float_array(name: str, x: Any) -> np.ndarray:
+    try:
+        arr = np.array(x)  # a private copy
+    except Exception as exc:
+        raise BadTypeError(f"{name} must be a float array, got {type(x).__name__}") from exc
+    if not np.issubdtype(arr.dtype, np.floating):
+        raise BadTypeError(f"{name} must be a float array, got dtype {arr.dtype}")
+    if not np.all(np.isfinite(arr)):
+        raise BadValueError(
+            f"{name} must be finite; {int(np.sum(~np.isfinite(arr)))} entries are not"
+        )
+    arr.setflags(write=False)
+    return arr
+
+
+@dataclasses.dataclass(frozen=True, eq=False)
+class Dataset:
+    """Irradiance `E` (W/m^2) at `N` receivers from one emitter, with standard errors and provenance.
+
+    Fields: `emitter` (an `attenfit` emitter), `points` and `normals` (float arrays `(N, 3)`,
+    normals need not be unit), `E` and `stderr` (float arrays `(N,)`, `stderr >= 0`, 0 for
+    exact values), `provenance` (a JSON-serialisable dict: `generator`, and e.g. `variant`,
+    `samples`/`spp`, `seed`, `versions`; grid datasets carry `shape` and `grid_index`).
+    Arrays are stored as read-only numpy arrays in the dtype given (float32 or float64).
+    """
+
+    emitter: AbstractEmitter
+    points: np.ndarray
+    normals: np.ndarray
+    E: np.ndarray
+    stderr: np.ndarray
+    provenance: dict[str, Any] = dataclasses.field(default_factory=dict)
+
+    def __post_init__(self):
+        if not isinstance(self.emitter, AbstractEmitter):
+            raise BadTypeError(
+                f"emitter must be an attenfit emitter, got {type(self.emitter).__name__}"
+            )
+        points = _float_array("points", self.points)
+        normals = _float_array("normals", self.normals)
+        E = _float_array("E", self.E)
+        stderr = _float_array("stderr", self.stderr)
+        if points.ndim != 2 or points.shape[1] != 3:
+            raise BadValueError(f"points must have shape (N, 3), got {points.shape}")
+        n = points.shape[0]
+        if normals.shape != (n, 3):
+            raise BadValueError(
+                f"normals must have shape {(n, 3)} like points, got {normals.shape}"
+            )
+        if E.shape != (n,):
+            raise BadValueError(f"E must have shape {(n,)}, got {E.shape}")
+        if stderr.shape == ():
+            stderr = np.full((n,), stderr, dtype=stderr.dtype)
+            stderr.setflags(write=False)
+        if stderr.shape != (n,):
+            raise BadValueError(f"stderr must have shape {(n,)} or be a scalar, got {stderr.shape}")
+        if np.any(stderr < 0):
+            raise BadValueError("stderr must be >= 0")
+        if n and not np.all(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0):
+            raise BadValueError("normals must be non-zero vectors")
+        if not isinstance(self.provenance, Mapping):
+            raise BadTypeError(f"provenance must be a dict, got {type(self.provenance).__name__}")
+        prov = dict(self.provenance)
+        try:
+            json.dumps(prov)
+        except (TypeError, ValueError) as exc:
+            raise BadValueError(f"provenance must be JSON-serialisable: {exc}") from exc
+        for name, value in (("points", points), ("normals", normals), ("E", E), ("stderr", stderr)):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "provenance", prov)
+
+    def __len__(self) -> int:
+        return int(self.points.shape[0])
+
+    def __repr__(self) -> str:
+        gen = self.provenance.get("generator", "?")
+        return (
+            f"Dataset({self.emitter.kind}, N={len(self)}, generator={gen!r}, dtype={self.E.dtype})"
+        )
+
+    # ------------------------------------------------------------------ derived quantities
+    def distance(self) -> np.ndarray:
+        """Distance `d` of each receiver from the light's centre (capsule: from its segment)."""
+        d, _ = self.emitter.point_light(self.points, self.normals)
+        return np.asarray(d)
+
+    def weight(self) -> np.ndarray:
+        """Point-light weight `I * g * max(0, n.l)` of each receiver (`E_model = weight * f(d)`)."""
+        _, w = self.emitter.point_light(self.points, self.normals)
+        return np.asarray(w)
+
+    def attenuation(self) -> np.ndarray:
+        """Ground-truth attenuation `E / weight` (1/m^2); NaN where the weight is 0."""
+        w = self.weight()
+        ok = w > 0
+        return np.where(ok, self.E / np.where(ok, w, 1), np.nan).astype(self.E.dtype)
+
+    def grid_image(self, values: np.ndarray | None = None) -> np.ndarray:
+        """`values` (default `E`) scattered into the receiver grid of a `plane_receivers` dataset.
+
+        Returns an array of `provenance["shape"]` with NaN where the grid had no receiver
+        (inside the light). Raises `BadValueError` for a dataset that is not a grid.
+        """
+        if "shape" not in self.provenance or "grid_index" not in self.provenance:
+            raise BadValueError(
+                "this dataset is not a receiver grid (no 'shape' in its provenance)"
+            )
+        values = self.E if values is None else np.asarray(values)
+        if values.shape != (len(self),):
+            raise BadValueError(f"values must have shape {(len(self),)}, got {values.shape}")
+        shape = tuple(self.provenance["shape"])
+        img = np.full(math.prod(shape), np.nan, dtype=np.result_type(values.dtype, np.float32))
+        img[np.asarray(self.provenance["grid_index"], dtype=np.int64)] = values
+        return img.reshape(shape)
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | os.PathLike, force: bool = False) -> Path:
+        """Write the dataset to `path` (`.npz` + JSON header) atomically; refuse to overwrite unless `force`."""
+        header = {
+            "format": FORMAT,
+            "version": FORMAT_VERSION,
+            "emitter": self.emitter.to_dict(),
+            "provenance": self.provenance,
+            "n": len(self),
+        }
+        arrays = {name: getattr(self, name) for name in _ARRAYS}
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, header=np.asarray(json.dumps(header)), **arrays)
+
+        return atomic_write(path, write, force=force)
+
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Dataset:
+        """Read a dataset written by `save`, validating its header, shapes, dtypes and finiteness.
+
+        Raises `DataFileError` for a missing, truncated, corrupt or foreign file.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise DataFileError(f"dataset file {str(path)!r} does not exist or is not a file")
+        try:
+            raw = path.read_bytes()
+            with np.load(io.BytesIO(raw), allow_pickle=False) as npz:
+                names = set(npz.files)
+                if "header" not in names:
+                    raise DataFileError(f"{str(path)!r} is not an attenfit dataset (no header)")
+                header = json.loads(str(npz["header"]))
+                arrays = {name: npz[name] for name in _ARRAYS if name in names}
+        except DataFileError:
+            raise
+        except (OSError, ValueError, EOFError, zipfile.BadZipFile, KeyError, TypeError) as exc:
+            raise DataFileError(
+                f"{str(path)!r} is not a readable attenfit dataset (.npz): {type(exc).__name__}: {exc}"
+            ) from exc
+        if not isinstance(header, dict) or header.get("format") != FORMAT:
+            raise DataFileError(
+                f"{str(path)!r} is not an attenfit dataset (header format is not {FORMAT!r})"
+            )
+        if header.get("version") != FORMAT_VERSION:
+            raise DataFileError(
+                f"{str(path)!r} has dataset format version {header.get('version')!r}; this attenfit reads {FORMAT_VERSION}"
+            )
+        missing = [name for name in _ARRAYS if name not in arrays]
+        if missing:
+            raise DataFileError(f"{str(path)!r} lacks the arrays {missing}")
+        try:
+            emitter = emitter_from_dict(header["emitter"])
+            ds = cls(emitter, provenance=header.get("provenance", {}), **arrays)
+        except (AttenfitError, KeyError) as exc:
+            raise DataFileError(f"{str(path)!r} holds an invalid dataset: {exc}") from exc
+        if header.get("n") != len(ds):
+            raise DataFileError(
+                f"{str(path)!r}: header says {header.get('n')} receivers, arrays hold {len(ds)}"
+            )
+        return ds
+
+
+# ----------------------------------------------------------------------------- builders
+def _positive(name: str, x: Any) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError) as exc:
+        raise BadTypeError(f"{name} must be a number, got {x!r}") from exc
+    if not (math.isfinite(v) and v > 0):
+        raise BadValueError(f"{name} must be finite and > 0, got {x!r}")
+    return v
+
+
+def _count(name: str, n: Any) -> int:
+    if isinstance(n, bool) or not isinstance(n, int | np.integer):
+        raise BadTypeError(f"{name} must be an integer, got {n!r}")
+    if n < 1:
+        raise BadValueError(f"{name} must be >= 1, got {n}")
+    return int(n)
+
+
+def _dtype(dtype: Any) -> np.dtype:
+    dt = np.dtype(jax.dtypes.canonicalize_dtype(np.float64) if dtype is None else dtype)
+    if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
+        raise BadTypeError(f"dtype must be float32 or float64, got {dt}")
+    if dt == np.float64 and not jax.config.jax_enable_x64:
+        raise BadValueError(
+            "dtype float64 needs jax_enable_x64 (jax.config.update('jax_enable_x64', True))"
+        )
+    return dt
+
+
+def _solid_radius(emitter: AbstractEmitter) -> float:
+    """Distance from the reference point within which a receiver may be inside a solid emitter."""
+    return 0.0 if isinstance(emitter, DiskEmitter) else float(emitter.radius)
+
+
+def _exact(emitter, points, normals, provenance, dtype) -> Dataset:
+    p = jnp.asarray(points, dtype=dtype)
+    n = jnp.asarray(normals, dtype=dtype)
+    E = np.asarray(irradiance(emitter, p, n))
+    if not np.all(np.isfinite(E)):  # a bug, not a user error: the builders avoid the invalid set
+        raise RuntimeError("irradiance returned non-finite values for builder receivers")
+    prov = {
+        "generator": "attenfit.irradiance",
+        "stderr": "exact",
+        "versions": _versions(),
+        **provenance,
+    }
+    return Dataset(emitter, np.asarray(p), np.asarray(n), E, np.zeros_like(E), prov)
+
+
+def _unit_np(v: Sequence[float], name: str) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
+        raise BadValueError(f"{name} must be a finite non-zero 3-vector, got {v.tolist()}")
+    return v / np.linalg.norm(v)
+
+
+def _perpendicular(e: np.ndarray) -> np.ndarray:
+    helper = np.array([1.0, 0, 0]) if abs(e[0]) < 0.9 else np.array([0, 1.0, 0])
+    w = np.cross(e, helper)
+    return w / np.linalg.norm(w)
+
+
+def facing_sweep(
+    emitter: AbstractEmitter,
+    d_min: float,
+    d_max: float,
+    n: int = 256,
+    *,
+    dtype: Any = None,
+) -> Dataset:
+    """Receivers facing the light on a log-spaced distance sweep `d_min..d_max` (the seeds' curves).
+
+    Sphere: along -z from the centre. Disk: on its axis, on the emitting side, facing it
+    (coaxial; `E = I / (d^2 + r^2)`). Capsule: from the segment's midpoint perpendicular to
+    its axis (so `d` is the distance to the segment). Every receiver's normal points at the
+    centre, so the attenuation `E / weight` is the plain curve. `d_min` must exceed the
+    radius for a sphere or capsule. `dtype` float32 or float64 (default: JAX's default float).
+    """
+    d_min, d_max = _positive("d_min", d_min), _positive("d_max", d_max)
+    n = _count("n", n)
+    if d_max < d_min:
+        raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
+    solid = _solid_radius(emitter)
+    if d_min <= solid:
+        raise BadValueError(
+            f"d_min ({d_min}) must exceed the {emitter.kind}'s radius ({solid}): receivers would be inside"
+        )
+    dt = _dtype(dtype)
+    c = np.asarray(emitter.reference_point(), dtype=np.float64)
+    if isinstance(emitter, SphereEmitter):
+        direction = np.array([0.0, 0.0, -1.0])
+    elif isinstance(emitter, DiskEmitter):
+        direction = np.asarray(emitter.normal, dtype=np.float64)
+    else:
+        ab = np.asarray(emitter.b, dtype=np.float64) - np.asarray(emitter.a, dtype=np.float64)
+        e = ab / np.linalg.norm(ab) if np.linalg.norm(ab) > 0 else np.array([0.0, 0.0, 1.0])
+        direction = _perpendicular(e)
+    d = np.geomspace(d_min, d_max, n)
+    points = c[None, :] + d[:, None] * direction[None, :]
+    normals = np.broadcast_to(-direction, points.shape)
+    prov = {
+        "builder": "facing_sweep",
+        "d_min": d_min,
+        "d_max": d_max,
+        "n": n,
+        "direction": direction.tolist(),
+    }
+    return _exact(emitter, points, normals, prov, dt)
+
+
+def plane_receivers(
+    emitter: AbstractEmitter,
+    height: float,
+    extent: float,
+    n: int | tuple[int, int] = 64,
+    *,
+    up: Sequence[float] = (0.0, 0.0, 1.0),
+    dtype: Any = None,
+) -> Dataset:
+    """A square grid of receivers on a plane `height` below the light's centre, normals `up`.
+
+    The plane is perpendicular to `up` (default +z) at signed distance `height` below the
+    light's centre (capsule: its midpoint): `height < r` makes a sphere or capsule cross the
+    plane, `height == r` touch it (as with virtual point lights on surfaces), `height <= 0`
+    puts the centre on or under the plane. The grid spans `+-extent` around the foot of the
+    centre with `n` (or `(ny, nx)`) points per side. Grid points on or inside the light are
+    left out; `provenance` records `shape` (ny, nx), `grid_index` (the flat grid index of
+    each receiver kept), the axes and the extent, so `Dataset.grid_image` can show it.
+    """
+    try:
+        h = float(height)
+    except (TypeError, ValueError) as exc:
+        raise BadTypeError(f"height must be a number, got {height!r}") from exc
+    if not math.isfinite(h):
+        raise BadValueError(f"height must be finite, got {height!r}")
+    extent = _positive("extent", extent)
+    ny, nx = (n, n) if not isinstance(n, tuple | list) else tuple(n)
+    ny, nx = _count("n", ny), _count("n", nx)
+    dt = _dtype(dtype)
+    up_v = _unit_np(up, "up")
+    ex = _perpendicular(up_v)
+    ey = np.cross(up_v, ex)
+    c = np.asarray(emitter.reference_point(), dtype=np.float64)
+    foot = c - h * up_v
+    xs = np.linspace(-extent, extent, nx)
+    ys = np.linspace(-extent, extent, ny)
+    X, Y = np.meshgrid(xs, ys)  # (ny, nx)
+    pts = foot[None, :] + X.reshape(-1, 1) * ex[None, :] + Y.reshape(-1, 1) * ey[None, :]
+    keep = ~_inside(emitter, pts)
+    index = np.nonzero(keep)[0]
+    if index.size == 0:
+        raise BadValueError(
+            "every grid point lies inside the light; move the plane or widen the extent"
+        )
+    pts = pts[index]
+    normals = np.broadcast_to(up_v, pts.shape)
+    prov = {
+        "builder": "plane_receivers",
+        "height": h,
+        "extent": extent,
+        "shape": [ny, nx],
+        "grid_index": index.tolist(),
+        "x_axis": ex.tolist(),
+        "y_axis": ey.tolist(),
+        "up": up_v.tolist(),
+    }
+    return _exact(emitter, pts, normals, prov, dt)
+
+
+def _inside(emitter: AbstractEmitter, pts: np.ndarray, margin: float = 1e-9) -> np.ndarray:
+    """Receivers on or inside a solid emitter (with a relative `margin`, so float32 is safe)."""
+    if isinstance(emitter, DiskEmitter):
+        return np.zeros(len(pts), dtype=bool)
+    r = float(emitter.radius)
+    if isinstance(emitter, SphereEmitter):
+        dist = np.linalg.norm(pts - np.asarray(emitter.center, dtype=np.float64), axis=1)
+    else:
+        dist = _segment_distance(emitter, pts)
+    return dist <= r * (1 + margin)
+
+
+def _segment_distance(emitter: CapsuleEmitter, pts: np.ndarray) -> np.ndarray:
+    a = np.asarray(emitter.a, dtype=np.float64)
+    ab = np.asarray(emitter.b, dtype=np.float64) - a
+    den = float(ab @ ab)
+    t = np.clip((pts - a) @ ab / den, 0, 1) if den > 0 else np.zeros(len(pts))
+    return np.linalg.norm(pts - (a + t[:, None] * ab), axis=1)
+
+
+def random_receivers(
+    emitter: AbstractEmitter,
+    n: int,
+    d_min: float,
+    d_max: float,
+    *,
+    seed: int = 0,
+    dtype: Any = None,
+) -> Dataset:
+    """`n` receivers at log-uniform distances `d_min..d_max` in uniform directions, random normals.
+
+    Distances are from the centre (capsule: from its segment; the point is offset from a
+    uniform point of the segment). Half the normals are uniform on the sphere; the other half
+    have `n.l` uniform in the horizon-straddling band `|n.l| < sin(alpha)` (alpha the light's
+    apparent angular radius `asin(r/d)`, or `atan(r/d)` for a disk), so horizon-clipped
+    receivers are well represented next to unclipped and fully-below ones. Deterministic in
+    `seed`. `d_min` must exceed the radius for a sphere or capsule.
+    """
+    n = _count("n", n)
+    d_min, d_max = _positive("d_min", d_min), _positive("d_max", d_max)
+    if d_max < d_min:
+        raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
+        raise BadTypeError(f"seed must be an integer, got {seed!r}")
+    solid = _solid_radius(emitter)
+    if d_min <= solid:
+        raise BadValueError(
+            f"d_min ({d_min}) must exceed the {emitter.kind}'s radius ({solid}): receivers would be inside"
+        )
+    dt = _dtype(dtype)
+    rng = np.random.default_rng(int(seed))
+    r = float(emitter.radius)
+
+    def unit(k):
+        v = rng.normal(size=(k, 3))
+        return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+    pts_list: list[np.ndarray] = []
+    have = 0
+    while have < n:
+        k = 2 * (n - have) + 8
+        d = np.exp(rng.uniform(math.log(d_min), math.log(d_max), size=k))
+        if isinstance(emitter, CapsuleEmitter):
+            a = np.asarray(emitter.a, dtype=np.float64)
+            b = np.asarray(emitter.b, dtype=np.float64)
+            base = a + rng.uniform(0, 1, size=(k, 1)) * (b - a)
+        else:
+            base = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), (k, 3))
+        p = base + d[:, None] * unit(k)
+        ok = ~_inside(emitter, p, margin=1e-6)
+        if isinstance(emitter, CapsuleEmitter):
+            ok &= _segment_distance(emitter, p) >= d_min
+        pts_list.append(p[ok])
+        have += int(ok.sum())
+    pts = np.concatenate(pts_list)[:n]
+    # normals
+    dp, _ = emitter.point_light(pts, np.broadcast_to([0.0, 0.0, 1.0], pts.shape))
+    dp = np.asarray(dp, dtype=np.float64)
+    if isinstance(emitter, CapsuleEmitter):
+        target = np.asarray(emitter.closest_point(pts), dtype=np.float64)
+    else:
+        target = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), pts.shape)
+    l = (target - pts) / dp[:, None]
+    if isinstance(emitter, DiskEmitter):
+        sin_a = np.sin(np.arctan(r / dp))
+    else:
+        sin_a = np.clip(r / dp, 0, 1)
+    uniform = rng.uniform(size=n) < 0.5
+    cos_t = np.where(uniform, rng.uniform(-1, 1, size=n), rng.uniform(-1, 1, size=n) * sin_a)
+    t1 = np.cross(l, unit(n))
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    sin_t = np.sqrt(np.clip(1 - cos_t**2, 0, 1))
+    normals = cos_t[:, None] * l + sin_t[:, None] * t1
+    prov = {
+        "builder": "random_receivers",
+        "n": n,
+        "d_min": d_min,
+        "d_max": d_max,
+        "seed": int(seed),
+    }
+    return _exact(emitter, pts, normals, prov, dt)

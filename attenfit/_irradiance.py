@@ -1,0 +1,390 @@
+"""Exact irradiance at receivers from Lambertian sphere, disk and capsule emitters.
+
+`irradiance(emitter, points, normals)` integrates the emitter's uniform radiance `L` over
+the solid angle it subtends, cosine-weighted and horizon-clipped (the part of the emitter
+below the receiver's tangent plane contributes nothing):
+
+    E(p, n) = L * integral over the visible emitter of max(0, n . omega) d omega.
+
+* Sphere: closed form. A sphere seen from `p` is a uniform cone of half-angle
+  `alpha = asin(r / D)`; unclipped `E = I cos(theta) / D^2` exactly (a point light), clipped
+  Snyder's (1996) sub-hemispherical form, in the stable atan2 form of
+  `reference/groundtruth.md` section 2 (equal to Frostbite 2014 section 4.7.2.4
+  `illuminanceSphereOrDisk` and Howell's catalogue B-43).
+* Disk: closed forms. Unclipped, the vector-irradiance form (Gershun's light vector; it
+  reduces to Howell B-12, B-14 and the perpendicular-element case); clipped, the
+  Stokes/Sparrow (1963) contour integral over the visible circular segment: rim arc plus
+  chord (groundtruth.md sections 3.5 and 3.6).
+* Capsule: a one-dimensional Gauss-Legendre quadrature over the pencil of planes that
+  contain the receiver and are parallel to the capsule's axis, with the integral inside
+  each plane (over the 2D stadium the plane cuts) done in closed form, clipping included.
+
+Everything is `jit`-, `vmap`- and `grad`-able and returns the dtype of `points`. Branches
+use the double-`where` idiom, so gradients are finite wherever the value is, including
+exactly on the horizon-crossing boundaries. Receivers on or inside a sphere or capsule are
+invalid and give NaN.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, ArrayLike, Float
+
+from ._errors import BadTypeError
+from .emitters import (
+    AbstractEmitter,
+    CapsuleEmitter,
+    DiskEmitter,
+    SphereEmitter,
+    _receivers,
+)
+
+__all__ = ["irradiance"]
+
+_PI = math.pi
+#: Nodes of the capsule's outer quadrature (its relative error is ~1e-7 or better; see the benchmark).
+CAPSULE_NODES = 256
+#: Gauss-Legendre nodes on the disk's visible arc when rho/a is small (see `_disk_one_sided`).
+_ARC_NODES = 32
+#: Below this rho/a the disk's arc integral is done by Gauss-Legendre (analytic form cancels).
+_ARC_RHO_MIN = 0.1
+
+
+def _gauss_legendre(n: int, dtype) -> tuple[Array, Array]:
+    x, w = np.polynomial.legendre.leggauss(n)
+    return jnp.asarray(x, dtype=dtype), jnp.asarray(w, dtype=dtype)
+
+
+# ----------------------------------------------------------------------------- helpers
+def _dot(a: Array, b: Array) -> Array:
+    return jnp.sum(a * b, axis=-1)
+
+
+def _safe_sqrt(x: Array) -> Array:
+    """sqrt(max(x, 0)) with gradient 0 (not inf/NaN) at and below 0."""
+    pos = x > 0
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, 1)), 0)
+
+
+def _poly(t2: Array, coeffs: tuple[float, ...]) -> Array:
+    """sum_k coeffs[k] * t2**k by Horner's rule."""
+    acc = jnp.zeros_like(t2) + coeffs[-1]
+    for c in coeffs[-2::-1]:
+        acc = acc * t2 + c
+    return acc
+
+
+_SERIES_MAX = 0.5
+_N_SERIES = 30
+# atan(t) - t = -t^3 sum_k (-1)^k t^(2k) / (2k + 3)
+_ATAN_M_T = tuple((-1.0) ** k / (2 * k + 3) for k in range(_N_SERIES))
+# 1 - atan(u)/u = u^2 sum_k (-1)^k u^(2k) / (2k + 3)
+_ONE_M_ATAN_RATIO = _ATAN_M_T
+
+
+def _atan_minus_x(t: Array) -> Array:
+    """atan(t) - t without cancellation for small t (series below 0.5), t >= 0."""
+    small = t < _SERIES_MAX
+    ts = jnp.where(small, t, 0.0)
+    tl = jnp.where(small, 1.0, t)
+    return jnp.where(small, -(ts**3) * _poly(ts * ts, _ATAN_M_T), jnp.arctan(tl) - tl)
+
+
+def _one_minus_atan_ratio(u: Array) -> Array:
+    """1 - atan(u)/u for u >= 0, accurate for small u (series) and finite for u = inf."""
+    small = u < _SERIES_MAX
+    us = jnp.where(small, u, 0.0)
+    ul = jnp.where(small, 1.0, u)
+    return jnp.where(small, us * us * _poly(us * us, _ONE_M_ATAN_RATIO), 1 - jnp.arctan(ul) / ul)
+
+
+def _cone_clipped_K(cos_t: Array, sin_a: Array, cos_a: Array) -> Array:
+    """K(cos theta, sin alpha) of a uniform cone partly below the horizon, E = L K.
+
+    Stable form of groundtruth.md section 2:
+    K = sin^2(a) cos(t) atan2(g, -cos(a) cos(t)) - g cos(a) + atan2(g, cos(a)),
+    g = sqrt(sin^2 a - cos^2 t). With t = g / cos(a) small, the last two terms are
+    rewritten as (atan t - t) + t sin^2 a, and for cos(t) < 0 the first two terms as
+    t sin^2 a (1 - atan(u)/u), u = g / (cos(a) |cos(t)|), each evaluated by a series.
+    Callers pass safe values (|cos t| < sin a, cos a > 0); the result is for that regime.
+    """
+    c, s, ca = cos_t, sin_a, cos_a
+    g = _safe_sqrt((s - c) * (s + c))
+    s2 = s * s
+    t = g / ca
+    phi = jnp.arctan2(g, -ca * c)
+    k_big = s2 * c * phi - g * ca + jnp.arctan2(g, ca)
+    atm = _atan_minus_x(t)
+    k_small_pos = s2 * c * phi + t * s2 + atm
+    neg = c < 0
+    u = g / (ca * jnp.where(neg, -c, 1.0))
+    k_small_neg = t * s2 * _one_minus_atan_ratio(u) + atm
+    k_small = jnp.where(neg, k_small_neg, k_small_pos)
+    return jnp.maximum(jnp.where(t < _SERIES_MAX, k_small, k_big), 0)
+
+
+# ----------------------------------------------------------------------------- sphere
+def _sphere_one(c: Array, r: Array, I: Array, p: Array, n: Array) -> Array:
+    dv = c - p
+    D2 = _dot(dv, dv)
+    valid = D2 > r * r
+    D = jnp.sqrt(jnp.where(valid, D2, (2 * r) ** 2))
+    cos_t = _dot(n, dv) / D
+    sin_a = r / D
+    cos_a = jnp.sqrt((D - r) * (D + r)) / D
+    unclipped = cos_t >= sin_a
+    below = cos_t <= -sin_a
+    E_point = (I / D) * (cos_t / D)
+    clipped = ~(unclipped | below)
+    c_safe = jnp.where(clipped, cos_t, 0.0)
+    K = _cone_clipped_K(c_safe, sin_a, cos_a)
+    E_clip = I / (_PI * r * r) * K
+    E = jnp.where(unclipped, E_point, jnp.where(below, 0.0, E_clip))
+    return jnp.where(valid, E, jnp.nan)
+
+
+# ----------------------------------------------------------------------------- disk
+def _frame(m: Array) -> tuple[Array, Array]:
+    """Unit u, v with u x v = m (Duff et al. 2017, "Building an orthonormal basis, revisited")."""
+    sign = jnp.where(m[2] >= 0, 1.0, -1.0).astype(m.dtype)
+    a = -1 / (sign + m[2])
+    b = m[0] * m[1] * a
+    u = jnp.stack([1 + sign * m[0] * m[0] * a, sign * b, -sign * m[0]])
+    v = jnp.stack([b, sign + m[1] * m[1] * a, -m[1]])
+    return u, v
+
+
+def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) -> Array:
+    """Irradiance from the face of a disk that emits along its unit normal `m`."""
+    dt = p.dtype
+    dv = c - p  # receiver -> centre
+    z = -_dot(dv, m)  # height of the receiver above the disk plane
+    nm = _dot(n, m)
+    nd = _dot(n, dv)
+    dperp = dv + z * m  # in-plane vector from the receiver's foot to the centre
+    s2 = _dot(dperp, dperp)
+    w2 = jnp.maximum(1 - nm * nm, 0.0)
+    w = _safe_sqrt(w2)
+    behind = z <= 0
+    below = nd <= -r * w
+    unclipped = nd >= r * w
+    clipped = ~(behind | below | unclipped)
+    zs = jnp.where(behind, 1.0, z)
+
+    # Scale lengths by lam = sqrt(z^2 + s^2 + r^2) so nothing overflows (a~ = 1).
+    a = zs * zs + s2 + r * r
+    lam = jnp.sqrt(a)
+    zt, rt = zs / lam, r / lam
+    st2 = s2 / (lam * lam)
+    st = _safe_sqrt(st2)
+
+    # --- unclipped: vector irradiance (groundtruth.md 3.5), E = I [Q(-n.m) + 2 z n.dperp] / (S (S + a))
+    A1 = zt * zt + (st - rt) ** 2
+    A2 = zt * zt + (st + rt) ** 2
+    S = jnp.sqrt(A1) * jnp.sqrt(A2)
+    q0 = zt * zt + rt * rt - st2
+    qneg = q0 < 0
+    Q = jnp.where(qneg, 4 * st2 * zt * zt / jnp.where(qneg, S - q0, 1.0), S + q0)
+    ndperp = _dot(n, dperp) / lam
+    E_un = (I / lam) / lam * (Q * (-nm) + 2 * zt * ndperp) / (S * (S + 1))
+
+    # --- clipped: arc + chord contour (groundtruth.md 3.6), E = -(L/2) (J_arc + J_chord)
+    u, v = _frame(m)
+    dtl = jnp.where(behind, -m, dv / lam)  # scaled receiver -> centre (safe when behind)
+    nu, nv = _dot(n, u), _dot(n, v)
+    ws = jnp.where(clipped, w, 1.0)
+    xc = jnp.where(clipped, -nd / (r * ws), 0.0)
+    beta = jnp.arccos(xc)
+    phin = jnp.arctan2(jnp.where(clipped, nv, 0.0), jnp.where(clipped, nu, 1.0))
+    A0 = rt * rt * nm
+    Ac = rt * _dot(n, jnp.cross(dtl, v))
+    As = -rt * _dot(n, jnp.cross(dtl, u))
+    b1 = 2 * rt * _dot(dtl, u)
+    b2 = 2 * rt * _dot(dtl, v)
+    rho = 2 * rt * st  # = sqrt(b1^2 + b2^2); a~ = 1
+    analytic = rho >= _ARC_RHO_MIN
+    # analytic branch (needs rho bounded away from 0)
+    b1s = jnp.where(analytic, b1, 1.0)
+    b2s = jnp.where(analytic, b2, 0.0)
+    rhos = jnp.where(analytic, rho, 1.0)
+    am = A1  # 1 - rho = z~^2 + (s~ - r~)^2, without cancellation
+    am = jnp.where(analytic, am, 0.5)
+    ap = 1 + rhos
+    Sarc = jnp.sqrt(am * ap)
+    k = jnp.sqrt(am / ap)
+    phi0 = jnp.arctan2(b2s, b1s)
+    cphi0, sphi0 = b1s / rhos, b2s / rhos
+    P = Ac * cphi0 + As * sphi0
+    Qs = As * cphi0 - Ac * sphi0
+    psim = jnp.mod(phin - phi0 + _PI, 2 * _PI) - _PI
+    psi1, psi2 = psim - beta, psim + beta
+
+    def I0(psi):
+        return (2 / Sarc) * jnp.arctan2(k * jnp.sin(psi / 2), jnp.cos(psi / 2))
+
+    dI0 = I0(psi2) - I0(psi1)
+    dIc = (2 * beta - dI0) / rhos
+    dcos = -2 * jnp.sin(psim) * jnp.sin(beta)  # cos(psi2) - cos(psi1)
+    dIs = -jnp.log1p(rhos * dcos / (1 + rhos * jnp.cos(psi1))) / rhos
+    J_an = A0 * dI0 + P * dIc + Qs * dIs
+    # quadrature branch (rho small: the integrand is nearly a trigonometric polynomial)
+    xg, wg = _gauss_legendre(_ARC_NODES, dt)
+    phis = phin + beta * xg
+    cp, sp = jnp.cos(phis), jnp.sin(phis)
+    J_gl = beta * jnp.sum(wg * (A0 + Ac * cp + As * sp) / (1 + b1 * cp + b2 * sp))
+    J_arc = jnp.where(analytic, J_an, J_gl)
+    xA = dtl + rt * (u * jnp.cos(phin + beta) + v * jnp.sin(phin + beta))
+    xB = dtl + rt * (u * jnp.cos(phin - beta) + v * jnp.sin(phin - beta))
+    J_chord = jnp.arctan2(_dot(n, jnp.cross(xA, xB)), _dot(xA, xB))
+    E_clip = jnp.maximum(-(I / (_PI * r * r)) / 2 * (J_arc + J_chord), 0.0)
+
+    return jnp.where(unclipped & ~behind, E_un, jnp.where(clipped, E_clip, 0.0))
+
+
+def _disk_one(c, m, r, I, p, n, *, two_sided: bool) -> Array:
+    E = _disk_one_sided(c, m, r, I, p, n)
+    if two_sided:
+        E = E + _disk_one_sided(c, -m, r, I, p, n)
+    return E
+
+
+# ----------------------------------------------------------------------------- capsule
+def _capsule_one(a, b, r, I, p, n, *, nodes: int) -> Array:
+    """Capsule irradiance by a pencil of planes through `p` parallel to the axis.
+
+    Directions are written omega = cos(chi) e + sin(chi) f(eta), f(eta) = cos(eta) f1 +
+    sin(eta) f2, with e the axis, f1 the unit vector from p towards the axis, eta in
+    (-pi/2, pi/2], chi in (-pi, pi]; d omega = |sin chi| d chi d eta. The plane at eta cuts
+    the capsule in a 2D stadium (radius r' = sqrt(r^2 - rho^2 sin^2 eta)), which p sees
+    under one interval of chi (the hull of its two end discs' intervals); the chi-integral
+    of max(0, n.omega) |sin chi| over it is done in closed form. The eta-integral is
+    Gauss-Legendre in tau with sin(eta) = min(1, r/rho) sin(tau), which removes the
+    square-root endpoints. Receivers on or inside the capsule give NaN.
+    """
+    dt = p.dtype
+    ab = b - a
+    ell2 = _dot(ab, ab)
+    has_len = ell2 > 0
+    ell = _safe_sqrt(ell2)
+    e = jnp.where(has_len, ab / jnp.where(has_len, ell, 1.0), jnp.asarray([0.0, 0.0, 1.0], dt))
+    ap = a - p
+    alpha_a = _dot(ap, e)
+    qv = ap - alpha_a * e
+    rho2 = _dot(qv, qv)
+    # inside test: distance from p to the segment
+    tcl = jnp.clip(-alpha_a, 0.0, ell)
+    dist2 = rho2 + (alpha_a + tcl) ** 2
+    valid = dist2 > r * r
+    # frame
+    has_rho = rho2 > (1e-12 * r) ** 2
+    rho = _safe_sqrt(rho2)
+    # any unit vector perpendicular to e, for receivers on the axis
+    helper = jnp.where(
+        jnp.abs(e[0]) < 0.9, jnp.asarray([1.0, 0, 0], dt), jnp.asarray([0, 1.0, 0], dt)
+    )
+    fallback = jnp.cross(e, helper)
+    fallback = fallback / jnp.linalg.norm(fallback)
+    f1 = jnp.where(has_rho, qv / jnp.where(has_rho, rho, 1.0), fallback)
+    f2 = jnp.cross(e, f1)
+    kappa = jnp.minimum(r / jnp.where(has_rho, rho, r), 1.0)
+    ne, n1, n2 = _dot(n, e), _dot(n, f1), _dot(n, f2)
+
+    xg, wg = _gauss_legendre(nodes, dt)
+    tau = (_PI / 2) * xg
+    sin_eta = kappa * jnp.sin(tau)
+    cos_eta = jnp.sqrt((1 - sin_eta) * (1 + sin_eta))
+    deta = (_PI / 2) * wg * kappa * jnp.cos(tau) / cos_eta
+    # r'^2 = r^2 - rho^2 sin^2 eta; with kappa < 1 that is r^2 cos^2 tau exactly
+    rp2 = jnp.where(kappa < 1, (r * jnp.cos(tau)) ** 2, r * r - rho2 * sin_eta**2)
+    rp = _safe_sqrt(rp2)
+    beta0 = rho * cos_eta
+    thA = jnp.arctan2(beta0, alpha_a)
+    thB = jnp.arctan2(beta0, alpha_a + ell)
+    dA = jnp.sqrt(alpha_a**2 + beta0**2)
+    dB = jnp.sqrt((alpha_a + ell) ** 2 + beta0**2)
+    hA = jnp.arcsin(jnp.clip(rp / dA, 0.0, 1.0))
+    hB = jnp.arcsin(jnp.clip(rp / dB, 0.0, 1.0))
+    chi1 = jnp.minimum(thA - hA, thB - hB)
+    chi2 = jnp.maximum(thA + hA, thB + hB)
+    # horizon: n.omega = A cos chi + B sin chi = R cos(chi - chin) > 0
+    A = ne
+    B = cos_eta * n1 + sin_eta * n2
+    chin = jnp.arctan2(B, jnp.where((A == 0) & (B == 0), 1.0, A))
+    mid, half = (chi1 + chi2) / 2, (chi2 - chi1) / 2
+    mrel = jnp.mod(mid - chin + _PI, 2 * _PI) - _PI
+    lo = jnp.maximum(mrel - half, -_PI / 2) + chin
+    hi = jnp.minimum(mrel + half, _PI / 2) + chin
+    hi = jnp.maximum(hi, lo)
+
+    def piece(x1, x2):
+        # integral of (A cos x + B sin x) |sin x| over [x1, x2], where sin x keeps one sign
+        D = jnp.maximum(x2 - x1, 0.0)
+        Sg = x1 + x2
+        sgn = jnp.sign(jnp.sin(Sg / 2))
+        sD = jnp.sin(D)
+        d_m_sin = jnp.where(D < 0.5, D**3 * _poly(D * D, _SIN_SERIES), D - sD)
+        val = A * sD * jnp.sin(Sg) / 2 + B * (d_m_sin + 2 * sD * jnp.sin(Sg / 2) ** 2) / 2
+        return sgn * val
+
+    kpi = _PI * jnp.ceil(lo / _PI)
+    inner = piece(lo, jnp.minimum(hi, kpi)) + piece(jnp.maximum(lo, kpi), hi)
+    E = I / (_PI * r * r) * jnp.sum(deta * inner)
+    return jnp.where(valid, E, jnp.nan)
+
+
+# x - sin x = x^3 sum_k (-1)^k x^(2k) / (2k + 3)!
+_SIN_SERIES = tuple((-1.0) ** k / math.factorial(2 * k + 3) for k in range(12))
+
+
+# ----------------------------------------------------------------------------- public
+def _kernel(emitter: AbstractEmitter, dtype) -> Callable[[Array, Array], Array]:
+    def cast(x):
+        return jnp.asarray(x).astype(dtype)
+
+    if isinstance(emitter, SphereEmitter):
+        c, r, I = cast(emitter.center), cast(emitter.radius), cast(emitter.intensity)
+        return lambda p, n: _sphere_one(c, r, I, p, n)
+    if isinstance(emitter, DiskEmitter):
+        c, m, r, I = (
+            cast(x) for x in (emitter.center, emitter.normal, emitter.radius, emitter.intensity)
+        )
+        m = m / jnp.linalg.norm(m)
+        ts = emitter.two_sided
+        return lambda p, n: _disk_one(c, m, r, I, p, n, two_sided=ts)
+    if isinstance(emitter, CapsuleEmitter):
+        a, b, r, I = (cast(x) for x in (emitter.a, emitter.b, emitter.radius, emitter.intensity))
+        return lambda p, n: _capsule_one(a, b, r, I, p, n, nodes=CAPSULE_NODES)
+    raise BadTypeError(
+        f"emitter must be a SphereEmitter, DiskEmitter or CapsuleEmitter, got {type(emitter).__name__}"
+    )
+
+
+def irradiance(
+    emitter: AbstractEmitter,
+    points: Float[ArrayLike, "*b 3"],
+    normals: Float[ArrayLike, "*b 3"],
+) -> Float[Array, "*b"]:
+    """Exact irradiance (W/m^2 for `I` in W/sr, lengths in m) at receivers `points` with `normals`.
+
+    `points[..., 3]` and `normals[..., 3]` broadcast against each other; normals are
+    normalised here. Horizon clipping is included: an emitter wholly below a receiver's
+    tangent plane gives exactly 0, as does a receiver behind a one-sided disk (or in its
+    plane). Receivers on or inside a sphere or capsule give NaN.
+
+    Sources: sphere, Snyder (1996) / Howell catalogue B-43 / Frostbite 2014 section 4.7.2.4
+    in the stable form of groundtruth.md section 2; disk, Howell B-12/B-14 and the vector
+    irradiance (unclipped) and the Stokes/Sparrow (1963) contour form (clipped),
+    groundtruth.md sections 3.5-3.6; capsule, a closed-form inner integral and a
+    `CAPSULE_NODES`-point Gauss-Legendre outer integral (relative error ~1e-7 or better).
+    The result has the dtype of `points` (float32 or float64).
+    """
+    p, n = _receivers(points, normals)
+    shape = p.shape[:-1]
+    kern = _kernel(emitter, p.dtype)
+    E = jax.vmap(kern)(p.reshape(-1, 3), n.reshape(-1, 3))
+    return E.reshape(shape)

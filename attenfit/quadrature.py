@@ -1,0 +1,1 @@
+"""Reference numerical integration of emitter irradiance (placeholder; filled in below)."""
