@@ -41,6 +41,7 @@ __all__ = [
     "softened_inverse_square",
     "stable_hypot",
     "surface_distance",
+    "surface_gap",
     "surface_sphere",
     "tan_warp",
     "yuksel",
@@ -261,25 +262,27 @@ def linear_tail_window(d: Real, r_max: Real, fraction: float = 0.2, power: int =
 
 
 # ----------------------------------------------------------------------------- distance warps
-def _warp_fraction(d: Real, d_max: Real) -> tuple[Real, Real, Real]:
-    """u = d/d_max and v = (d_max - d)/d_max (computed without cancellation), made safe."""
-    inside = d < d_max
+def _warp_fraction(d: Real, d_max: Real, gap: Real | None) -> tuple[Real, Real, Real]:
+    """inside = gap > 0, u = d/d_max and v = gap/d_max (gap = d_max - d), made safe."""
+    if gap is None:
+        gap = d_max - d
+    inside = gap > 0
     d_in = jnp.where(inside, d, jnp.zeros_like(d))
-    u = d_in / d_max
-    v = (d_max - d_in) / d_max
-    return inside, u, v
+    gap_in = jnp.where(inside, gap, d_max)
+    return inside, d_in / d_max, gap_in / d_max
 
 
-def tan_warp(d: Real, d_max: Real) -> tuple[Real, Real]:
+def tan_warp(d: Real, d_max: Real, gap: Real | None = None) -> tuple[Real, Real]:
     """Madams 2011b's tan warp d' = (2 d_max/pi) tan(pi d/(2 d_max)) -> inf at d = d_max.
 
     The post writes 2.1 tan(...) for its own d_max; 2 d_max/pi keeps d' = d + O(d^3) near 0.
     Returns (d', inside): d' is finite everywhere (arbitrary but safe where not `inside`,
     i.e. d >= d_max, where the caller selects 0). Near d_max it uses
-    tan(pi/2 u) = 1/tan(pi/2 (1 - u)) with 1 - u = (d_max - d)/d_max, so no argument is close
-    to a pole.
+    tan(pi/2 u) = 1/tan(pi/2 (1 - u)) with 1 - u = gap/d_max, so no argument is close to a
+    pole. `gap` = d_max - d, if the caller can compute it more accurately than that (e.g.
+    (d_max - D) + r for a surface distance d = D - r); by default d_max - d.
     """
-    inside, u, v = _warp_fraction(d, d_max)
+    inside, u, v = _warp_fraction(d, d_max, gap)
     scale = 2 * d_max / math.pi
     low = u <= 0.5
     t_low = jnp.tan((math.pi / 2) * jnp.where(low, u, jnp.zeros_like(u)))
@@ -288,16 +291,24 @@ def tan_warp(d: Real, d_max: Real) -> tuple[Real, Real]:
     return jnp.where(inside, warped, jnp.zeros_like(warped)), inside
 
 
-def rational_warp(d: Real, d_max: Real) -> tuple[Real, Real]:
+def rational_warp(d: Real, d_max: Real, gap: Real | None = None) -> tuple[Real, Real]:
     """Madams 2011b's rational warp d' = d/(1 - (d/d_max)^2) -> inf at d = d_max.
 
-    Computed as d/(v (1 + u)) with v = (d_max - d)/d_max, u = d/d_max (no cancellation).
-    Returns (d', inside) like `tan_warp`.
+    Computed as d/(v (1 + u)) with v = gap/d_max = (d_max - d)/d_max, u = d/d_max (no
+    cancellation). Returns (d', inside) like `tan_warp`; `gap` as there.
     """
-    inside, u, v = _warp_fraction(d, d_max)
-    v_safe = jnp.where(inside, v, jnp.ones_like(v))
-    warped = (u * d_max) / (v_safe * (1 + u))
+    inside, u, v = _warp_fraction(d, d_max, gap)
+    warped = (u * d_max) / (v * (1 + u))
     return jnp.where(inside, warped, jnp.zeros_like(warped)), inside
+
+
+def surface_gap(d: Real, r: Real, d_max: Real) -> Real:
+    """d_max - max(d - r, 0) for a surface-distance warp, as (d_max - d) + r when d > r.
+
+    Near the range d ~ d_max + r, so d_max - d is exact (Sterbenz) when r <= d_max and the
+    only rounding is the final one: the warp keeps full relative accuracy up to its pole.
+    """
+    return jnp.where(d > r, (d_max - d) + r, d_max)
 
 
 # ----------------------------------------------------------------------------- splines
@@ -329,7 +340,7 @@ def monotone_cubic(
         mn = _pchip_end(h[-1], h[-2], delta[-1], delta[-2])
         m = jnp.concatenate([m0[None], interior, mn[None]])
     xc = jnp.clip(x, xk[0], xk[-1])
-    i = jnp.clip(jnp.searchsorted(xk, xc, side="right") - 1, 0, k - 2)
+    i = jnp.clip(jnp.searchsorted(xk, xc, side="right", method="compare_all") - 1, 0, k - 2)
     hi = h[i]
     t = (xc - xk[i]) / hi
     t2 = t * t

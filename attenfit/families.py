@@ -324,7 +324,9 @@ class MadamsTan(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r, d_max = parts.promote(d, self.r, self.d_max)
-        warped, inside = parts.tan_warp(parts.surface_distance(parts.distance(d), r), d_max)
+        d = parts.distance(d)
+        gap = parts.surface_gap(d, r, d_max)
+        warped, inside = parts.tan_warp(parts.surface_distance(d, r), d_max, gap)
         f = parts.surface_sphere(warped, r)
         return jnp.where(inside, f, jnp.zeros_like(f))
 
@@ -358,7 +360,9 @@ class MadamsRational(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r, d_max = parts.promote(d, self.r, self.d_max)
-        warped, inside = parts.rational_warp(parts.surface_distance(parts.distance(d), r), d_max)
+        d = parts.distance(d)
+        gap = parts.surface_gap(d, r, d_max)
+        warped, inside = parts.rational_warp(parts.surface_distance(d, r), d_max, gap)
         f = parts.surface_sphere(warped, r)
         return jnp.where(inside, f, jnp.zeros_like(f))
 
@@ -595,10 +599,13 @@ class GltfRange(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, rng = parts.promote(d, self.range)
         d = parts.distance(d)
-        w = parts.smooth_window(d, rng, 4, 1)
-        # 0 * inf would be NaN at d = 0: the window is 1 wherever 1/d^2 can overflow.
-        inv = parts.inverse_square(d)
-        return jnp.where(w > 0, inv * w, jnp.zeros_like(w))
+        # Near the light (d < range/2) as 1/d^2 - d^2/range^4: no cancellation there (the
+        # second term is < 1/16 of the first) and no 0 * inf in the gradient at d = 0.
+        near = d < rng / 2
+        x = jnp.where(near, d, jnp.zeros_like(d)) / rng
+        f_near = parts.inverse_square(d) - (x / rng) * (x / rng)
+        f_far = parts.inverse_square(jnp.where(near, rng, d)) * parts.smooth_window(d, rng, 4, 1)
+        return jnp.where(near, f_near, f_far)
 
 
 # ----------------------------------------------------------------------------- spline
