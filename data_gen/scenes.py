@@ -1,17 +1,21 @@
 """Mitsuba 3 scenes for attenfit's emitters, as plain data.
 
-A light is described by a small frozen record (`SphereLight`, `DiskLight`) holding numbers
+A light is described by a small frozen record (`SphereLight`, `DiskLight`, `CapsuleLight`) holding numbers
 only; `scene_dicts` turns a list of them, plus an optional opaque `Plane`, into the plain
 dictionaries that `mitsuba.load_dict` accepts. Each light is a Mitsuba `sphere` or `disk`
 shape carrying an `area` emitter of uniform radiance L (Lambertian), with L the radiance that
 the point-equivalent intensity implies, L = I / (pi r^2) (groundtruth.md section 1).
 
-Mitsuba's area emitter is one-sided (it emits along the shape's normal; `disk` has normal
-+z in object space, mapped to the light's normal `m` by `to_world`). A two-sided disk is
-therefore rendered as two *components*: one scene whose disk faces `m` and one whose disk
-faces `-m`; the estimator sums their irradiance. One scene with both faces would be correct
-too, but Mitsuba then picks the wrong face for half of the samples, which multiplies the
-variance (measured: 16x the standard error at 3 radii on the axis).
+The irradiance of a set of lights is the sum over *components* (`scene_components`): scenes
+holding the same shapes but differing in which of them emit. Two reasons:
+
+* Mitsuba's area emitter is one-sided (it emits along the shape's normal; `disk` has normal
+  +z in object space, mapped to the light's normal `m` by `to_world`), so a two-sided disk's
+  back face is a second disk facing `-m`, in a component of its own. One scene with both
+  faces would be correct too, but Mitsuba then picks the wrong face for half the samples,
+  which multiplies the variance (measured: 16x the standard error at 3 radii on the axis).
+* A capsule is an open `cylinder` plus a `sphere` at each end; each end sphere emits in its
+  own component with its inner half (inside the tube) clipped away.
 """
 
 from __future__ import annotations
@@ -24,12 +28,18 @@ import numpy as np
 from attenfit._errors import BadTypeError, BadValueError
 
 __all__ = [
+    "LIGHT_TYPES",
+    "CapsuleLight",
+    "Component",
     "DiskLight",
+    "Light",
     "Plane",
     "SphereLight",
+    "light_spheres",
     "lights_from_emitter",
+    "plane_axes",
     "plane_dict",
-    "scene_dicts",
+    "scene_components",
 ]
 
 Vec3 = tuple[float, float, float]
@@ -103,7 +113,38 @@ class Plane:
         object.__setattr__(self, "half_size", _positive("half_size", self.half_size))
 
 
-Light = SphereLight | DiskLight
+@dataclass(frozen=True)
+class CapsuleLight:
+    """A Lambertian capsule light: the points within `radius` of the segment `a`-`b`.
+
+    Rendered as an open Mitsuba `cylinder` from `a` to `b` plus a `sphere` at each end, all
+    emitting `radiance`: each sphere's inner half lies inside the tube, where Mitsuba's
+    shadow rays find it hidden by the cylinder wall, so the lit surface is the capsule's.
+    """
+
+    a: Vec3
+    b: Vec3
+    radius: float
+    radiance: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "a", _vec3("a", self.a))
+        object.__setattr__(self, "b", _vec3("b", self.b))
+        object.__setattr__(self, "radius", _positive("radius", self.radius))
+        object.__setattr__(self, "radiance", _positive("radiance", self.radiance))
+
+
+Light = SphereLight | DiskLight | CapsuleLight
+LIGHT_TYPES = (SphereLight, DiskLight, CapsuleLight)
+
+
+def light_spheres(light: Light) -> list[SphereLight]:
+    """The sphere lights a light is rendered with (a capsule's two ends; a sphere itself)."""
+    if isinstance(light, SphereLight):
+        return [light]
+    if isinstance(light, CapsuleLight):
+        return [SphereLight(end, light.radius, light.radiance) for end in (light.a, light.b)]
+    return []
 
 
 def _frame(mi, center: Vec3, normal: Vec3, scale: float):
@@ -118,76 +159,161 @@ def _emitter(radiance: float) -> dict:
     return {"type": "area", "radiance": {"type": "uniform", "value": radiance}}
 
 
-def _light_dict(mi, light: Light, *, face: float = 1.0, emitting: bool = True) -> dict:
-    if isinstance(light, SphereLight):
-        d = {"type": "sphere", "center": list(light.center), "radius": light.radius}
-    else:
-        m = tuple(face * c for c in light.normal)
-        d = {"type": "disk", "to_world": _frame(mi, light.center, m, light.radius)}
-    if emitting:
-        d["emitter"] = _emitter(light.radiance)
-    return d
+@dataclass(frozen=True)
+class _Shape:
+    key: str
+    shape: dict
+    role: str  # the component in which this shape emits
+    radiance: float
+    clip: tuple[Vec3, Vec3] | None = None
+    only_in: str | None = None  # present only in that component (a disk's back face)
+
+
+def _shapes(mi, i: int, light: Light) -> list[_Shape]:
+    """The Mitsuba shapes of light `i`, each tagged with the component it emits in."""
+    L = light.radiance
+    if isinstance(light, DiskLight):
+        front = {"type": "disk", "to_world": _frame(mi, light.center, light.normal, light.radius)}
+        out = [_Shape(f"light_{i}", front, "main", L)]
+        if light.two_sided:
+            m = tuple(-c for c in light.normal)
+            back = {"type": "disk", "to_world": _frame(mi, light.center, m, light.radius)}
+            out.append(_Shape(f"light_{i}_back", back, "back", L, only_in="back"))
+        return out
+    if isinstance(light, SphereLight) or light.a == light.b:
+        sp = light_spheres(light)[0]
+        return [_Shape(f"light_{i}", _sphere(sp), "main", L)]
+    cylinder = {
+        "type": "cylinder",
+        "p0": list(light.a),
+        "p1": list(light.b),
+        "radius": light.radius,
+    }
+    a, b = np.asarray(light.a), np.asarray(light.b)
+    out = [_Shape(f"light_{i}_tube", cylinder, "main", L)]
+    end_a, end_b = light_spheres(light)
+    for name, sp, axis in (("a", end_a, b - a), ("b", end_b, a - b)):
+        clip = (sp.center, (float(axis[0]), float(axis[1]), float(axis[2])))
+        out.append(_Shape(f"light_{i}_end_{name}", _sphere(sp), f"cap_{i}_{name}", L, clip))
+    return out
+
+
+def _sphere(sp: SphereLight) -> dict:
+    return {"type": "sphere", "center": list(sp.center), "radius": sp.radius}
+
+
+@dataclass(frozen=True)
+class Component:
+    """One Mitsuba scene (`scene`, a dict) whose emitters are one part of the lights.
+
+    Samples landing where `clip = (point, axis)` says `(x - point) . axis > 0` are discarded:
+    the inner half of a capsule's end sphere, which is not part of the capsule's surface.
+    """
+
+    scene: dict
+    clip: tuple[Vec3, Vec3] | None
+
+
+def plane_axes(plane: Plane) -> tuple[np.ndarray, np.ndarray]:
+    """Unit in-plane axes (u, v) with u x v = the plane's normal; u = +x, v = +y facing +z."""
+    n = np.asarray(plane.normal)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(n[2]) >= 0.9 else np.array([0.0, 0.0, 1.0])
+    u = helper - (helper @ n) * n
+    u /= np.linalg.norm(u)
+    return u, np.cross(n, u)
 
 
 def plane_dict(mi, plane: Plane) -> dict:
-    """A Mitsuba `rectangle` (object space [-1, 1]^2 at z = 0, normal +z) placed as `plane`."""
-    return {"type": "rectangle", "to_world": _frame(mi, plane.point, plane.normal, plane.half_size)}
+    """A Mitsuba `rectangle` (object space [-1, 1]^2 at z = 0, normal +z) mapped onto `plane`.
+
+    Object x, y, z go to h u, h v, n (`plane_axes`), so the square's sides follow u and v.
+    """
+    u, v = plane_axes(plane)
+    h = plane.half_size
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = h * u, h * v, plane.normal, plane.point
+    return {"type": "rectangle", "to_world": mi.ScalarTransform4f(m.tolist())}
 
 
-def scene_dicts(mi, lights: Sequence[Light], plane: Plane | None = None) -> list[dict]:
+def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) -> list[Component]:
     """The scene components whose irradiance sums to that of `lights` (over `plane`).
 
-    Component 0 holds every light emitting along its normal; if any disk is two-sided, a
-    second component holds those disks' back faces as emitters and every other light as a
-    non-emitting occluder, so shadows between lights are kept. The plane, if any, is an
-    occluder in every component. `mi` is the `mitsuba` module with a variant set (the
-    transforms are variant-specific).
+    Every component holds every shape, so shadows between lights are Mitsuba's; they differ
+    in which shapes emit. Component 0: spheres, disks (front faces) and capsule tubes. Then
+    one per capsule end: that end's sphere, clipped to its outer half (rendering the caps
+    in component 0 would count a sliver of each inner half twice: shadow rays stop
+    `ShadowEpsilon` short of their target, so the inner half is not hidden near the seam;
+    measured +2% beside a capsule). Last, if any disk is two-sided: the back faces. The
+    plane, if any, is an occluder everywhere. `mi` is the `mitsuba` module with a variant set.
     """
     if not lights:
-        raise BadValueError("lights must hold at least one SphereLight or DiskLight, got none")
+        raise BadValueError("lights must hold at least one light, got none")
     for i, light in enumerate(lights):
-        if not isinstance(light, SphereLight | DiskLight):
+        if not isinstance(light, LIGHT_TYPES):
             raise BadTypeError(
-                f"lights[{i}] must be a SphereLight or DiskLight, got {type(light).__name__}"
+                f"lights[{i}] must be a SphereLight, DiskLight or CapsuleLight, "
+                f"got {type(light).__name__}"
             )
-    front: dict = {"type": "scene"}
-    for i, light in enumerate(lights):
-        front[f"light_{i}"] = _light_dict(mi, light)
-    components = [front]
-    if any(isinstance(lt, DiskLight) and lt.two_sided for lt in lights):
-        back: dict = {"type": "scene"}
-        for i, light in enumerate(lights):
-            if isinstance(light, DiskLight) and light.two_sided:
-                back[f"light_{i}"] = _light_dict(mi, light, face=-1.0)
-            else:
-                back[f"light_{i}"] = _light_dict(mi, light, emitting=False)
-        components.append(back)
-    if plane is not None:
-        for comp in components:
-            comp["plane"] = plane_dict(mi, plane)
+    shapes = [sh for i, light in enumerate(lights) for sh in _shapes(mi, i, light)]
+    roles = list(dict.fromkeys(sh.role for sh in shapes))
+    roles.sort(key=lambda r: (r != "main", r == "back"))
+    has_back = {sh.key.removesuffix("_back") for sh in shapes if sh.only_in == "back"}
+    components = []
+    for role in roles:
+        scene: dict = {"type": "scene"}
+        clip = None
+        for sh in shapes:
+            if sh.only_in is not None and sh.only_in != role:
+                continue
+            if role == "back" and sh.key in has_back:
+                continue  # the front face is where the back face is
+            d = dict(sh.shape)
+            if sh.role == role:
+                d["emitter"] = _emitter(sh.radiance)
+                clip = sh.clip if sh.clip is not None else clip
+            scene[sh.key] = d
+        if plane is not None:
+            scene["plane"] = plane_dict(mi, plane)
+        components.append(Component(scene, clip))
     return components
 
 
 def lights_from_emitter(emitter) -> list[Light]:
     """The `SphereLight`/`DiskLight` records for an `attenfit` emitter (radiance from `.radiance`).
 
-    Accepts `attenfit.SphereEmitter` and `attenfit.DiskEmitter` (and anything with the same
-    fields: `center`, `radius`, `radiance`, and for a disk `normal`, `two_sided`).
+    Accepts `attenfit.SphereEmitter`, `DiskEmitter` and `CapsuleEmitter` (by class name and
+    fields, so `data_gen` needs nothing else from `attenfit.emitters`).
     """
     kind = type(emitter).__name__
-    center = np.asarray(emitter.center, dtype=np.float64)
     radius = float(np.asarray(emitter.radius))
     radiance = float(np.asarray(emitter.radiance))
     if kind == "SphereEmitter":
-        return [SphereLight(center=center, radius=radius, radiance=radiance)]
+        return [
+            SphereLight(
+                center=np.asarray(emitter.center, dtype=np.float64),
+                radius=radius,
+                radiance=radiance,
+            )
+        ]
     if kind == "DiskEmitter":
         return [
             DiskLight(
-                center=center,
+                center=np.asarray(emitter.center, dtype=np.float64),
                 normal=np.asarray(emitter.normal, dtype=np.float64),
                 radius=radius,
                 radiance=radiance,
                 two_sided=bool(getattr(emitter, "two_sided", False)),
             )
         ]
-    raise BadTypeError(f"Mitsuba ground truth supports SphereEmitter and DiskEmitter, got {kind}")
+    if kind == "CapsuleEmitter":
+        return [
+            CapsuleLight(
+                a=np.asarray(emitter.a, dtype=np.float64),
+                b=np.asarray(emitter.b, dtype=np.float64),
+                radius=radius,
+                radiance=radiance,
+            )
+        ]
+    raise BadTypeError(
+        f"Mitsuba ground truth supports SphereEmitter, DiskEmitter and CapsuleEmitter, got {kind}"
+    )
