@@ -467,11 +467,9 @@ def _static_index(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> np.ndarray:
         indices = ins[1]
         dn = params["dimension_numbers"]
         sizes = tuple(params["slice_sizes"])
-        mode = str(params.get("mode", ""))
-        if "FILL" in mode.upper():
-            # out-of-range indices would give the fill value; JAX only uses this mode for
-            # explicit mode="fill" indexing, which the families do not
-            raise UnsupportedPrimitiveError(f"gather in mode {mode} (in {eqn})")
+        fill_mode = "FILL" in str(params.get("mode", "")).upper()
+        out_code = _dtype_code(eqn.outvars[0].aval.dtype)
+        fill = _fill_value(params.get("fill_value"), eqn.outvars[0].aval.dtype, out_code)
         offset_dims = tuple(dn.offset_dims)
         collapsed = tuple(dn.collapsed_slice_dims)
         op_batch = tuple(getattr(dn, "operand_batching_dims", ()))
@@ -494,12 +492,52 @@ def _static_index(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> np.ndarray:
             offsets = [0] * operand.ndim
             for d, off in zip(offset_operand_dims, offs, strict=True):
                 offsets[d] = off
-            out[o] = _gather_element(b, operand, starts, offsets, his)
+            value = _gather_element(b, operand, starts, offsets, his)
+            if fill_mode:  # an out-of-range start index gives the fill value instead
+                value = _fill_if_out_of_range(
+                    b, value, [(starts[d], his[d]) for d in start_map], fill
+                )
+            out[o] = value
         return out
     raise UnsupportedPrimitiveError(
         f"cannot translate JAX primitive {name!r} (in {eqn}); only gathers and dynamic slices "
         "that read an array are supported, not scatters"
     )
+
+
+def _fill_value(value: Any, dtype: Any, code: str) -> Const:
+    """JAX's gather fill value: NaN for floats, the most negative int, True for bools."""
+    if value is None:
+        dt = np.dtype(dtype)
+        if code == "f32":
+            value = float("nan")
+        elif code == "bool":
+            value = True
+        else:
+            value = int(
+                np.iinfo(dt).min if np.issubdtype(dt, np.signedinteger) else np.iinfo(dt).max
+            )
+    return Const(_plain_value(value, code) if code != "f32" else float(value), code)
+
+
+def _fill_if_out_of_range(
+    b: _Builder, value: Atom, starts: list[tuple[Any, int]], fill: Const
+) -> Atom:
+    bad: Atom | None = None
+    for s, hi in starts:
+        if isinstance(s, Const):
+            s = int(s.value)
+        if isinstance(s, int | np.integer):
+            if not 0 <= int(s) <= hi:
+                return fill
+            continue
+        below = b.emit("lt", [s, Const(0, s.dtype)], "bool")
+        above = b.emit("gt", [s, Const(hi, s.dtype)], "bool")
+        either = b.emit("or", [below, above], "bool")
+        bad = either if bad is None else b.emit("or", [bad, either], "bool")
+    if bad is None:
+        return value
+    return b.emit("select_n", [bad, value, fill], value.dtype)
 
 
 def _gather_element(
