@@ -313,44 +313,59 @@ def surface_gap(d: Real, r: Real, d_max: Real) -> Real:
 
 # ----------------------------------------------------------------------------- splines
 def monotone_cubic(
-    x: Float[Array, "*shape"], xk: Float[Array, " k"], yk: Float[Array, " k"]
-) -> Float[Array, "*shape"]:
+    x: Float[Array, "*batch"], xk: Float[Array, " k"], yk: Float[Array, "*batch k"]
+) -> Float[Array, "*batch"]:
     """Fritsch-Carlson monotone cubic Hermite interpolation (PCHIP) of (xk, yk) at x.
 
     Fritsch and Carlson 1980, "Monotone piecewise cubic interpolation" (SIAM J. Numer. Anal.
     17(2)), with the endpoint slopes and harmonic-mean interior slopes of Fritsch and Butland
-    (as in scipy's `PchipInterpolator`). Monotone whenever the data are. `xk` must be strictly
-    increasing and have at least 2 points; `x` is clipped to [xk[0], xk[-1]] (extrapolate in
-    the caller). Differentiable in `yk` and `x` (double-`where` around every division).
+    (as in scipy's `PchipInterpolator`). Monotone whenever the data are. `xk` (k >= 2) must be
+    strictly increasing; `yk` carries the same batch shape as `x` (broadcast them first); `x`
+    is clipped to [xk[0], xk[-1]] (extrapolate in the caller). Differentiable in `yk` and `x`
+    (double-`where` around every division).
     """
+    shape = x.shape
     k = xk.shape[0]
-    h = xk[1:] - xk[:-1]
-    delta = (yk[1:] - yk[:-1]) / h
+    x = x.reshape(-1)
+    yk = yk.reshape(-1, k)
+    h = (xk[1:] - xk[:-1])[None, :]
+    delta = (yk[:, 1:] - yk[:, :-1]) / h
     if k == 2:
-        m = jnp.stack([delta[0], delta[0]])
+        m = jnp.concatenate([delta, delta], axis=-1)
     else:
-        w1 = 2 * h[1:] + h[:-1]
-        w2 = h[1:] + 2 * h[:-1]
-        d0, d1 = delta[:-1], delta[1:]
+        w1 = 2 * h[:, 1:] + h[:, :-1]
+        w2 = h[:, 1:] + 2 * h[:, :-1]
+        d0, d1 = delta[:, :-1], delta[:, 1:]
         same = (d0 * d1) > 0
         d0s = jnp.where(same, d0, jnp.ones_like(d0))
         d1s = jnp.where(same, d1, jnp.ones_like(d1))
         interior = jnp.where(same, (w1 + w2) / (w1 / d0s + w2 / d1s), jnp.zeros_like(d0))
-        m0 = _pchip_end(h[0], h[1], delta[0], delta[1])
-        mn = _pchip_end(h[-1], h[-2], delta[-1], delta[-2])
-        m = jnp.concatenate([m0[None], interior, mn[None]])
+        m0 = _pchip_end(h[:, 0], h[:, 1], delta[:, 0], delta[:, 1])
+        mn = _pchip_end(h[:, -1], h[:, -2], delta[:, -1], delta[:, -2])
+        m = jnp.concatenate([m0[:, None], interior, mn[:, None]], axis=-1)
     xc = jnp.clip(x, xk[0], xk[-1])
-    i = jnp.clip(jnp.searchsorted(xk, xc, side="right", method="compare_all") - 1, 0, k - 2)
-    hi = h[i]
-    t = (xc - xk[i]) / hi
+    # Interval index by comparison with the interior knots (k is small).
+    # Interval index by comparison with the interior knots, and one-hot selection instead of
+    # gathers (k is small; this compiles and differentiates cheaply under vmap).
+    i = jnp.sum((xc[:, None] >= xk[None, 1:-1]).astype(jnp.int32), axis=-1)
+    onehot = (jnp.arange(k)[None, :] == i[:, None]).astype(x.dtype)
+    onehot1 = (jnp.arange(k)[None, :] == i[:, None] + 1).astype(x.dtype)
+
+    def at(a: Array, sel: Array) -> Array:
+        return jnp.sum(a * sel[:, : a.shape[-1]], axis=-1)
+
+    x0 = at(xk[None, :], onehot)
+    hi = at(h, onehot)
+    t = (xc - x0) / hi
     t2 = t * t
     t3 = t2 * t
-    return (
-        (2 * t3 - 3 * t2 + 1) * yk[i]
-        + (t3 - 2 * t2 + t) * hi * m[i]
-        + (-2 * t3 + 3 * t2) * yk[i + 1]
-        + (t3 - t2) * hi * m[i + 1]
+    out = (
+        (2 * t3 - 3 * t2 + 1) * at(yk, onehot)
+        + (t3 - 2 * t2 + t) * hi * at(m, onehot)
+        + (-2 * t3 + 3 * t2) * at(yk, onehot1)
+        + (t3 - t2) * hi * at(m, onehot1)
     )
+    return out.reshape(shape)
 
 
 def _pchip_end(h0: Array, h1: Array, d0: Array, d1: Array) -> Array:

@@ -22,7 +22,6 @@ import math
 from typing import ClassVar
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -668,9 +667,7 @@ class Spline(Family):
         shape = jnp.broadcast_shapes(d.shape, values.shape[:-1])
         d = jnp.broadcast_to(d, shape)
         values = jnp.broadcast_to(values, (*shape, k))
-        interp = jax.vmap(lambda x, y: parts.monotone_cubic(x, logk, y))(
-            jnp.broadcast_to(logd, shape).reshape(-1), values.reshape(-1, k)
-        ).reshape(shape)
+        interp = parts.monotone_cubic(jnp.broadcast_to(logd, shape), logk, values)
         f_mid = jnp.exp(interp)
         f_first = jnp.exp(values[..., 0])
         far = d >= kn

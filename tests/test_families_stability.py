@@ -38,8 +38,8 @@ def case(request):
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["float32", "float64"])
 def test_values_finite_nonnegative_dtype(case, dtype):
-    name, static, inst, out, ref32, *_ = case
-    params, grid = inst[dtype]
+    name, _static, inst, out, ref32, *_ = case
+    _params, grid = inst[dtype]
     vals = out[dtype][0]
     assert vals.dtype == dtype
     assert not np.isnan(vals).any(), f"{name}: NaN at d = {grid[np.isnan(vals)]}"
@@ -58,8 +58,8 @@ def test_values_finite_nonnegative_dtype(case, dtype):
 
 @pytest.mark.parametrize("dtype", DTYPES, ids=["float32", "float64"])
 def test_gradients_finite(case, dtype):
-    name, static, inst, out, *_ = case
-    params, grid = inst[dtype]
+    name, _static, inst, out, *_ = case
+    _params, grid = inst[dtype]
     vals, gd, gp = out[dtype]
     finite = np.isfinite(vals)
     assert gd.dtype == dtype
@@ -81,7 +81,7 @@ def test_float32_matches_float64(case):
     `madams_cutoff`'s r/sqrt(cutoff), whose float32 rounding moves the zero) the value tends
     to 0: there the error is bounded by 1e-6 of the curve's peak instead.
     """
-    name, static, inst, out, ref32, p32, g32 = case
+    name, static, _inst, out, ref32, p32, g32 = case
     cls = attenfit.get_family(name)
     v32 = out[np.float32][0].astype(np.float64)
     tiny, big = np.finfo(np.float32).tiny, np.finfo(np.float32).max
