@@ -44,37 +44,40 @@ LANGUAGES = ("glsl", "hlsl", "wgsl", "c")
 
 
 # ----------------------------------------------------------------------------- the model
-def load_model(source: Any) -> tuple[Family, dict[str, Any]]:
+def load_model(source: Any, *, family: str | None = None) -> tuple[Family, dict[str, Any]]:
     """Resolve what `export` accepts into `(family instance, fit information)`.
 
     `source` is a `Family` instance or class, a registered family name, a `FitResult`
     (anything with a `model` that is a `Family`), a dict as written by
     `FitResult.to_dict()` (a family name under "family" and parameter values under
-    "params"), or the path of such a JSON file (`attenfit fit --out`). The fit information
-    is empty except for a fit, where it holds what the fit reported (metrics, loss,
-    converged, and the file it came from).
+    "params"), a list of such dicts, or the path of such a JSON file (`attenfit fit --out
+    DIR` writes `DIR/fits.json`; the folder is accepted too). When the source holds several
+    fits, `family` names the one to use. The fit information is empty except for a fit,
+    where it holds what the fit reported (metrics, loss, converged, configuration, file).
     """
     if isinstance(source, Family):
         return source, {}
     if isinstance(source, type) and issubclass(source, Family):
         return source(), {}
     if isinstance(source, str | os.PathLike) and (
-        str(source).endswith(".json") or os.sep in str(source) or Path(source).is_file()
+        str(source).endswith(".json") or os.sep in str(source) or Path(source).exists()
     ):
         path = Path(source)
+        if path.is_dir():
+            path = path / "fits.json"
         try:
             data = json.loads(path.read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise DataFileError(f"fit file {str(path)!r} does not exist") from None
         except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
             raise DataFileError(f"fit file {str(path)!r} is not readable JSON: {exc}") from None
-        family, info = _from_dict(data, where=f"fit file {str(path)!r}")
+        model, info = _from_dict(data, where=f"fit file {str(path)!r}", family=family)
         info["file"] = str(path)
-        return family, info
+        return model, info
     if isinstance(source, str):
         return get_family(source)(), {}
-    if isinstance(source, Mapping):
-        return _from_dict(source, where="fit dict")
+    if isinstance(source, Mapping | list):
+        return _from_dict(source, where="fit dict", family=family)
     model = getattr(source, "model", None)
     if isinstance(model, Family):
         info = {
@@ -98,16 +101,24 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _from_dict(data: Any, *, where: str) -> tuple[Family, dict[str, Any]]:
+def _from_dict(
+    data: Any, *, where: str, family: str | None = None
+) -> tuple[Family, dict[str, Any]]:
     if isinstance(data, Mapping) and isinstance(data.get("fits"), list):
         data = data["fits"]
     if isinstance(data, list):
-        if len(data) != 1:
-            names = [d.get("family") if isinstance(d, Mapping) else d for d in data]
+        names = [d.get("family") if isinstance(d, Mapping) else None for d in data]
+        if family is not None:
+            if family not in names:
+                raise UnknownNameError(f"{where} holds no fit of family {family!r}; it has {names}")
+            data = data[names.index(family)]
+        elif len(data) != 1:
             raise BadValueError(
-                f"{where} holds {len(data)} fits ({names}); export needs exactly one"
+                f"{where} holds {len(data)} fits ({', '.join(map(str, names))}); name one "
+                "(family=..., or --family on the command line)"
             )
-        data = data[0]
+        else:
+            data = data[0]
     if not isinstance(data, Mapping):
         raise DataFileError(f"{where} is not a fit result (expected a JSON object)")
     name = data.get("family", data.get("model"))
@@ -122,13 +133,14 @@ def _from_dict(data: Any, *, where: str) -> tuple[Family, dict[str, Any]]:
     params = data.get("params", {})
     if not isinstance(params, Mapping):
         raise DataFileError(f"{where}: 'params' must be an object of parameter values")
-    family = cls()
     try:
-        family = family.replace(**{k: _param_value(v, k, where) for k, v in params.items()})
+        model = cls().replace(**{k: _param_value(v, k, where) for k, v in params.items()})
     except UnknownNameError as exc:
         raise DataFileError(f"{where}: {exc}") from None
-    info = {k: _plain(data[k]) for k in ("metrics", "loss", "converged") if k in data}
-    return family, info
+    info = {
+        k: _plain(data[k]) for k in ("metrics", "loss", "converged", "configuration") if k in data
+    }
+    return model, info
 
 
 def _param_value(value: Any, name: str, where: str) -> Any:
@@ -407,6 +419,7 @@ def export(
     uniforms: bool = False,
     name: str | None = None,
     params: Mapping[str, Any] | None = None,
+    family: str | None = None,
 ) -> str:
     """A self-contained `lang` function `float name(float d)` evaluating the (fitted) family.
 
@@ -425,6 +438,8 @@ def export(
     params
         Parameter values that replace the model's (a fit's error no longer applies then
         and is not quoted).
+    family
+        Which fit to export when `model` holds several (a FIT.json of many families).
 
     Returns
     -------
@@ -433,19 +448,15 @@ def export(
     """
     if lang not in _LANGS:
         raise UnknownNameError(f"unknown language {lang!r}; choose one of {list(LANGUAGES)}")
-    family, info = load_model(model)
+    fam, info = load_model(model, family=family)
     if params:
-        family = family.replace(**{k: _param_value(v, k, "params") for k, v in params.items()})
-        info = (
-            {"note": "parameters overridden after the fit; its error does not apply"}
-            if info
-            else {}
-        )
-    fname = name if name is not None else f"attenfit_{family.name}"
+        fam = fam.replace(**{k: _param_value(v, k, "params") for k, v in params.items()})
+        if info:
+            info = {"note": "parameters overridden after the fit; its error does not apply"}
+    fname = name if name is not None else f"attenfit_{fam.name}"
     if not (isinstance(fname, str) and fname.isidentifier() and fname.isascii()):
         raise BadValueError(f"function name {fname!r} is not an ASCII identifier")
-    program = trace(family)
-    return _emit(program, family, info, _LANGS[lang], fname, uniforms)
+    return _emit(trace(fam), fam, info, _LANGS[lang], fname, uniforms)
 
 
 def _emit(
@@ -555,7 +566,8 @@ def _header(
         f"params  : {values or 'none'} ({where})" if values else "params  : none",
     ]
     if info:
-        lines.append("fit     : " + _fit_summary(info))
+        fit = _fit_summary(info)
+        lines += [f"fit     : {fit[0]}", *(f"          {line}" for line in fit[1:])]
     lines += [
         f"Generated by attenfit {__version__} from the jaxpr of the JAX implementation",
         f"({n_ops} scalar operations, float32): the same numerically stable form.",
@@ -565,19 +577,23 @@ def _header(
     return lines
 
 
-def _fit_summary(info: dict[str, Any]) -> str:
-    parts = []
+def _fit_summary(info: dict[str, Any]) -> list[str]:
+    """The fit's error (its error metrics, loss, convergence), configuration and file."""
+    errors = []
     metrics = info.get("metrics") or {}
     if isinstance(metrics, Mapping):
         for key, value in metrics.items():
-            if isinstance(value, int | float) and not isinstance(value, bool):
-                parts.append(f"{key} = {value:.3g}")
+            if "err" in key and isinstance(value, int | float) and not isinstance(value, bool):
+                errors.append(f"{key} = {value:.3g}")
     if isinstance(info.get("loss"), int | float):
-        parts.append(f"loss = {info['loss']:.3g}")
+        errors.append(f"loss = {info['loss']:.3g}")
     if "converged" in info:
-        parts.append(f"converged = {info['converged']}")
+        errors.append(f"converged = {info['converged']}")
+    lines = [", ".join(errors) or "(no error reported)"]
+    if "configuration" in info:
+        lines.append(f"fitted to {info['configuration']}")
     if "file" in info:
-        parts.append(f"from {info['file']}")
+        lines.append(f"from {info['file']}")
     if "note" in info:
-        parts.append(info["note"])
-    return "; ".join(parts[:8]) or "(no error reported)"
+        lines.append(info["note"])
+    return lines

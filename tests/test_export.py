@@ -385,3 +385,66 @@ def test_wgsl_validates(tmp_path, tool):
     (tmp_path / "all.wgsl").write_text(src)
     cmd = [path, "all.wgsl"] if tool == "naga" else [path, "--format", "wgsl", "all.wgsl"]
     _run(cmd, tmp_path)
+
+
+# ----------------------------------------------------------------------------- the CLI verb
+def test_cli_export_prints_and_writes(tmp_path, capsys):
+    from attenfit.cli import main
+
+    assert main(["export", "yuksel", "--lang", "c", "--param", "r=0.25"]) == 0
+    out = capsys.readouterr().out
+    assert out == ex.export("yuksel", "c", params={"r": 0.25})
+    target = tmp_path / "y.glsl"
+    assert main(["export", "yuksel", "--uniforms", "--out", str(target)]) == 0
+    assert target.read_text() == ex.export("yuksel", "glsl", uniforms=True)
+    assert main(["export", "yuksel", "--out", str(target)]) == 2  # exists, no --force
+    err = capsys.readouterr().err
+    assert (
+        f"attenfit: error: output file '{target}' exists; use force=True (--force) to overwrite it"
+        in err
+    )
+    assert main(["export", "clamped", "--out", str(target), "--force"]) == 0
+    assert "attenfit_clamped" in target.read_text()
+
+
+def test_cli_export_of_a_fit_file(tmp_path, capsys):
+    from attenfit.cli import main
+
+    fits = [
+        {"family": "yuksel", "params": {"r": 0.2}, "metrics": {"max_rel_error": 0.03}},
+        {"family": "clamped", "params": {"r_min": 0.3}, "metrics": {"max_rel_error": 0.5}},
+    ]
+    path = tmp_path / "fits.json"
+    path.write_text(json.dumps(fits))
+    assert main(["export", str(path), "--family", "clamped", "--lang", "wgsl"]) == 0
+    out = capsys.readouterr().out
+    assert "let r_min: f32 = 0.3f;" in out and "max_rel_error = 0.5" in out
+    assert main(["export", str(tmp_path), "--family", "yuksel"]) == 0  # the --out folder
+    assert "float r = 0.2;" in capsys.readouterr().out
+    assert main(["export", str(path)]) == 2
+    assert capsys.readouterr().err == (
+        f"attenfit: error: fit file '{path}' holds 2 fits (yuksel, clamped); name one "
+        "(family=..., or --family on the command line)\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (
+            ["export", "yuksel", "--lang", "cuda"],
+            "--lang must be one of glsl, hlsl, wgsl, c, got 'cuda'",
+        ),
+        (["export", "yuksel", "--param", "r"], "--param must be NAME=NUMBER, got 'r'"),
+        (
+            ["export", "yuksel", "--param", "q=1"],
+            "family 'yuksel' has no parameter 'q'; it has ['r']",
+        ),
+        (["export", "yuksel", "--name", "a-b"], "function name 'a-b' is not an ASCII identifier"),
+    ],
+)
+def test_cli_export_errors(argv, message, capsys):
+    from attenfit.cli import main
+
+    assert main(argv) == 2
+    assert capsys.readouterr().err == f"attenfit: error: {message}\n"
