@@ -67,5 +67,18 @@ from ._fit import fit_many as fit_many
 
 # --- metrics and report (issue 6) ---
 # --- cost, scene, export (issue 7) ---
+# `attenfit.export` is the module; its function is `attenfit.export.export` (also
+# `attenfit.export_function`), so that the module stays importable under its name.
+from . import cost as cost
+from . import export as export
+from .cost import Cost as Cost
+from .cost import ParetoFront as ParetoFront
+from .cost import cost_table as cost_table
+from .cost import count_ops as count_ops
+from .cost import family_cost as family_cost
+from .cost import pareto_front as pareto_front
+from .cost import plot_cost_vs_error as plot_cost_vs_error
+from .cost import shader_cost as shader_cost
+from .export import export as export_function
 
 __version__ = "0.1.0"
