@@ -182,7 +182,7 @@ def _shapes(mi, i: int, light: Light) -> list[_Shape]:
         return out
     if isinstance(light, SphereLight) or light.a == light.b:
         sp = light_spheres(light)[0]
-        return [_Shape(f"light_{i}", _sphere(sp), "main", L)]
+        return [_Shape(f"light_{i}", _sphere(sp), "spheres", L)]
     cylinder = {
         "type": "cylinder",
         "p0": list(light.a),
@@ -206,12 +206,15 @@ def _sphere(sp: SphereLight) -> dict:
 class Component:
     """One Mitsuba scene (`scene`, a dict) whose emitters are one part of the lights.
 
-    Samples landing where `clip = (point, axis)` says `(x - point) . axis > 0` are discarded:
-    the inner half of a capsule's end sphere, which is not part of the capsule's surface.
+    `cone` is True when every emitter in it is a sphere (Mitsuba samples the cone a sphere
+    subtends, so light sampling alone has bounded values). Samples landing where
+    `clip = (point, axis)` says `(x - point) . axis > 0` are discarded: the inner half of a
+    capsule's end sphere, which is not part of the capsule's surface.
     """
 
     scene: dict
     clip: tuple[Vec3, Vec3] | None
+    cone: bool
 
 
 def plane_axes(plane: Plane) -> tuple[np.ndarray, np.ndarray]:
@@ -239,8 +242,7 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
     """The scene components whose irradiance sums to that of `lights` (over `plane`).
 
     Every component holds every shape, so shadows between lights are Mitsuba's; they differ
-    in which shapes emit. Component 0: spheres, disks (front faces) and capsule tubes. Then
-    one per capsule end: that end's sphere, clipped to its outer half (rendering the caps
+    in which shapes emit: disks (front faces) and capsule tubes; sphere lights; one per capsule end: that end's sphere, clipped to its outer half (rendering the caps
     in component 0 would count a sliver of each inner half twice: shadow rays stop
     `ShadowEpsilon` short of their target, so the inner half is not hidden near the seam;
     measured +2% beside a capsule). Last, if any disk is two-sided: the back faces. The
@@ -256,12 +258,13 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
             )
     shapes = [sh for i, light in enumerate(lights) for sh in _shapes(mi, i, light)]
     roles = list(dict.fromkeys(sh.role for sh in shapes))
-    roles.sort(key=lambda r: (r != "main", r == "back"))
+    roles.sort(key=lambda r: (r != "main", r != "spheres", r == "back"))
     has_back = {sh.key.removesuffix("_back") for sh in shapes if sh.only_in == "back"}
     components = []
     for role in roles:
         scene: dict = {"type": "scene"}
         clip = None
+        cone = True
         for sh in shapes:
             if sh.only_in is not None and sh.only_in != role:
                 continue
@@ -271,10 +274,11 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
             if sh.role == role:
                 d["emitter"] = _emitter(sh.radiance)
                 clip = sh.clip if sh.clip is not None else clip
+                cone = cone and d["type"] == "sphere"
             scene[sh.key] = d
         if plane is not None:
             scene["plane"] = plane_dict(mi, plane)
-        components.append(Component(scene, clip))
+        components.append(Component(scene, clip, cone))
     return components
 
 
