@@ -43,36 +43,13 @@ from ._errors import BadTypeError, BadValueError, UnknownNameError
 from ._family import Family
 from ._guess import linear_candidate, scale_candidates
 from ._reparam import to_internal, to_param
+from ._solvers import SOLVERS, make_solver
 
 __all__ = ["LOSSES", "SOLVERS", "FitResult", "FitResults", "fit", "fit_dataset", "fit_many"]
 
 #: Loss names accepted by `fit` (see the module docstring for the residuals).
 LOSSES = ("relative", "log", "absolute")
 
-
-def _lm(rtol: float, atol: float):
-    return optx.LevenbergMarquardt(rtol=rtol, atol=atol)
-
-
-def _dogleg(rtol: float, atol: float):
-    return optx.Dogleg(rtol=rtol, atol=atol)
-
-
-def _gauss_newton(rtol: float, atol: float):
-    return optx.GaussNewton(rtol=rtol, atol=atol)
-
-
-def _bfgs(rtol: float, atol: float):
-    return optx.BFGS(rtol=rtol, atol=atol)
-
-
-#: Solver names accepted by `fit`, with the optimistix solver each builds.
-SOLVERS: dict[str, Callable[[float, float], Any]] = {
-    "levenberg_marquardt": _lm,
-    "dogleg": _dogleg,
-    "gauss_newton": _gauss_newton,
-    "bfgs": _bfgs,
-}
 
 _CONSTRAINT_WORDS = {
     "positive": "> 0",
@@ -342,6 +319,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
     kinds = dict(zip(spec.names, spec.kinds, strict=True))
     free_lengths = tuple(p for p in spec.length_params if p in free and kinds[p] == "positive")
     flat_kinds = [kinds[p] for p, s in zip(free, sizes, strict=True) for _ in range(s)]
+    linear_coord = np.array([k in ("nonnegative", "real") for k in flat_kinds])
 
     def split(vec, values):
         out = dict(values)
@@ -383,10 +361,21 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             u0 = us[jnp.argmin(costs)]
         else:
             u0 = u_given
+        # The solver moves z = u / scale: nonnegative and real coordinates are scaled by
+        # their start's magnitude, so a problem and its rescaled copy (another radius) take
+        # the same steps; exp and sigmoid coordinates are scale-free already.
+        scale = jnp.where(linear_coord & (jnp.abs(u0) > 0), jnp.abs(u0), 1).astype(dtype)
+        scale = jax.lax.stop_gradient(scale)
+
+        def res_z(z, _):
+            return res_u(z * scale, None)
+
         r0 = res_u(u0, None)
         start_finite = jnp.all(jnp.isfinite(r0))
-        sol = optx.least_squares(res_u, solver_obj, u0, None, max_steps=max_steps, throw=False)
-        u = sol.value
+        sol = optx.least_squares(
+            res_z, solver_obj, u0 / scale, None, max_steps=max_steps, throw=False
+        )
+        u = sol.value * scale
         best = cost(u)
         # Snap nonnegative parameters to their bound where 0 fits at least as well.
         at_bound = []
@@ -428,8 +417,10 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
 _COMPILED: dict[Any, Callable] = {}
 
 
-def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched):
+def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype):
+    """The jitted solve for this configuration, from the cache (jit re-specialises on shapes)."""
     key = (
+        str(np.dtype(dtype)),
         spec.key,
         spec.names,
         spec.shapes,
@@ -444,7 +435,11 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched):
     )
     fn = _COMPILED.get(key)
     if fn is None:
-        solver_obj = SOLVERS[solver](rtol, atol) if isinstance(solver, str) else solver
+        solver_obj = (
+            make_solver(solver, rtol, atol, float(np.finfo(dtype).eps))
+            if isinstance(solver, str)
+            else solver
+        )
         problem = _build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol)
         fn = jax.jit(jax.vmap(problem) if batched else problem)
         _COMPILED[key] = fn
@@ -606,6 +601,11 @@ class FitResult:
         return "\n".join(lines)
 
 
+def _field_value(v: np.ndarray, dtype) -> Any:
+    """A fitted family field: a Python float for a scalar, else an array of the fit's dtype."""
+    return float(v) if np.ndim(v) == 0 else jnp.asarray(v, dtype)
+
+
 def _python_value(v: np.ndarray) -> Any:
     return float(v) if v.ndim == 0 else v.tolist()
 
@@ -651,7 +651,7 @@ def _make_result(
         model = eqx.tree_at(
             lambda m: [getattr(m, nm) for nm in spec.names],
             template,
-            [jnp.asarray(fitted[nm], dtype) for nm in spec.names],
+            [_field_value(fitted[nm], dtype) for nm in spec.names],
             is_leaf=lambda x: x is None,
         )
     else:
@@ -749,9 +749,10 @@ def fit(
         model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched=False
     )
     w = np.ones_like(target, dtype=dtype) if weights is None else weights.astype(dtype)
-    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), False)
-    jvalues = {k: jnp.asarray(v, dtype) for k, v in values.items()}
-    out = fn(jvalues, jnp.asarray(d, dtype), jnp.asarray(target, dtype), jnp.asarray(w, dtype))
+    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), False, dtype)
+    # numpy in: jit's C++ fast path transfers them (jnp.asarray per array costs ~0.1 ms each)
+    nvalues = {k: np.asarray(v, dtype) for k, v in values.items()}
+    out = fn(nvalues, np.asarray(d, dtype), np.asarray(target, dtype), np.asarray(w, dtype))
     out = jax.device_get(out)
     return _make_result(
         spec, model, values, free, out, None, target.shape[-1], loss, _solver_name(solver), dtype
@@ -837,9 +838,14 @@ def fit_many(
     bvalues = values
     d = np.broadcast_to(d, (batch, n))
     w = np.ones((batch, n), dtype) if weights is None else np.broadcast_to(weights, (batch, n))
-    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), True)
-    jvalues = {k: jnp.asarray(v, dtype) for k, v in bvalues.items()}
-    out = fn(jvalues, jnp.asarray(d, dtype), jnp.asarray(target, dtype), jnp.asarray(w, dtype))
+    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), True, dtype)
+    nvalues = {k: np.ascontiguousarray(v, dtype) for k, v in bvalues.items()}
+    out = fn(
+        nvalues,
+        np.ascontiguousarray(d, dtype),
+        np.ascontiguousarray(target, dtype),
+        np.ascontiguousarray(w, dtype),
+    )
     out = jax.device_get(out)
     return FitResults(spec, model, bvalues, free, out, n, loss, _solver_name(solver), dtype)
 

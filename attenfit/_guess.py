@@ -5,9 +5,9 @@ start with every free length parameter scaled by one common factor over a log gr
 (families declare their `length_params`; under d -> s d the curve's shape only depends on
 d / length), and, for families whose reciprocal is linear in their parameters
 (`1/f = kc + kl d + kq d^2` for `polynomial`, `1/f = d^2 + eps` for `unreal_epsilon`), the
-weighted linear least-squares solution of `1/f = 1/target`, refined by two reweighting
-passes (Loeb's iteration for rational approximation: weights from the previous fit turn
-`|g - h|` into the relative error `|g - h| / g`). A good start is what makes a batch of
+weighted linear least-squares solution of `1/f = 1/target`, then refined by a few
+Gauss-Newton steps on the loss itself (cheap: the Jacobian of `1/g` with `g` linear is
+explicit), which usually lands on the optimum before the solver starts. A good start is what makes a batch of
 thousands of fits cheap: a vmapped solve runs until its slowest problem has finished.
 """
 
@@ -50,6 +50,31 @@ def scale_candidates(
     return out
 
 
+def spd_solve(a: Float[Array, "k k"], b: Float[Array, " k"]) -> Float[Array, " k"]:
+    """Solve `a x = b` for a small symmetric positive definite `a` by an unrolled Cholesky.
+
+    Elementwise arithmetic only: under `vmap` it vectorises over the batch, where a batched
+    LAPACK call per 3x3 system costs several times more on CPU (measured 0.07 ms against
+    0.44 ms for 1,000 systems). A non-positive pivot gives NaN, which the caller's
+    finiteness checks reject.
+    """
+    k = a.shape[0]
+    chol = [[None] * k for _ in range(k)]
+    for i in range(k):
+        for j in range(i + 1):
+            acc = a[i, j] - sum((chol[i][m] * chol[j][m] for m in range(j)), start=0 * a[i, j])
+            chol[i][j] = jnp.sqrt(acc) if i == j else acc / chol[j][j]
+    y = []
+    for i in range(k):
+        y.append((b[i] - sum((chol[i][m] * y[m] for m in range(i)), start=0 * b[i])) / chol[i][i])
+    x = [None] * k
+    for i in reversed(range(k)):
+        x[i] = (y[i] - sum((chol[m][i] * x[m] for m in range(i + 1, k)), start=0 * b[i])) / chol[i][
+            i
+        ]
+    return jnp.stack(x)
+
+
 def linear_candidate(
     family: str,
     start: Mapping[str, Array],
@@ -79,21 +104,46 @@ def linear_candidate(
         if p not in free:
             rhs = rhs - start[p] * basis[p](d)
     cols = jnp.stack([basis[p](d).astype(dtype) for p in solve_for], axis=-1)
-    # The relative (or log) residual of f is about (g - h) / g = (g - h) * f; the absolute
-    # one is (g - h) * f^2. Start from f ~ target, then reweight with the fitted g.
-    power = 2 if loss == "absolute" else 1
-    scale = jnp.where(target > 0, target, 0) ** power * weights
+    fixed_part = h - rhs  # offset and fixed terms of the reciprocal
     norms = jnp.sqrt(jnp.sum(cols * cols, axis=0))
-    norms = jnp.where(norms > 0, norms, 1)
-    coef = jnp.zeros(len(solve_for), dtype)
-    for _ in range(3):
-        a = cols / norms[None, :] * scale[:, None]
-        sol, *_ = jnp.linalg.lstsq(a, rhs * scale)
-        coef = sol / norms
-        g = cols @ coef + (h - rhs)  # the fitted reciprocal, including offset and fixed terms
-        ok = jnp.all(jnp.isfinite(g)) & jnp.all(g > 0)
-        g_safe = jnp.where(ok & (g > 0), g, 1)
-        scale = jnp.where(ok, weights / g_safe**power, scale)
+    cols = cols / jnp.where(norms > 0, norms, 1)[None, :]  # unit columns: better conditioned
+    eye = jnp.eye(len(solve_for), dtype=dtype)
+
+    def solve_normal(a, b):
+        ata = a.T @ a
+        return spd_solve(ata + eye * (jnp.finfo(dtype).eps * jnp.trace(ata)), a.T @ b)
+
+    # 1. Linear least squares for 1/f = 1/target, rows weighted so that |g - h| reads as
+    #    the relative (log) error |g - h| / g ~ |g - h| f, or |g - h| f^2 (absolute).
+    power = 2 if loss == "absolute" else 1
+    scale = target**power * weights
+    coef = solve_normal(cols * scale[:, None], rhs * scale)
+
+    # 2. Gauss-Newton on the loss itself (the model is 1/g, g linear in the coefficients);
+    #    a step is kept only where g stays positive and the loss drops.
+    def residual_and_jac(c):
+        g = cols @ c + fixed_part
+        ok = jnp.all(g > 0) & jnp.all(jnp.isfinite(g))
+        gs = jnp.where(g > 0, g, 1)
+        if loss == "relative":
+            r, dr_dg = h / gs - 1, -h / (gs * gs)
+        elif loss == "log":
+            r, dr_dg = -jnp.log(gs) + jnp.log(jnp.where(target > 0, target, 1)), -1 / gs
+        else:
+            r, dr_dg = 1 / gs - target, -1 / (gs * gs)
+        r, jac = weights * r, (weights * dr_dg)[:, None] * cols
+        cost = jnp.where(ok, jnp.sum(r * r), jnp.inf)
+        return r, jac, cost
+
+    _, _, cost = residual_and_jac(coef)
+    for _ in range(4):
+        r, jac, _ = residual_and_jac(coef)
+        trial = coef - solve_normal(jac, r)
+        _, _, trial_cost = residual_and_jac(trial)
+        better = trial_cost < cost
+        coef = jnp.where(better, trial, coef)
+        cost = jnp.where(better, trial_cost, cost)
+    coef = coef / jnp.where(norms > 0, norms, 1)
     cand = dict(start)
     for i, p in enumerate(solve_for):
         c = coef[i]

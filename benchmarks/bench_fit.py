@@ -1,0 +1,149 @@
+"""Fitting speed: attenfit (optimistix, after compilation) against scipy's least_squares.
+
+Problems: the `polynomial` family 1/(kc + kl d + kq d^2) (3 parameters) fitted with the
+relative loss to Yuksel's sphere curve 2/(s (s + d)), s = sqrt(d^2 + r^2) (Yuksel 2020
+eq. 7), on 256 distances d = r (0.05 + 20 x), x uniform in [0, 1].
+
+- one fit (r = 1): `attenfit.fit` against `scipy.optimize.least_squares(method="lm")`
+  with an analytic Jacobian;
+- 1,000 fits with radii log-uniform in [0.05, 2]: one `attenfit.fit_many` call against a
+  Python loop of scipy fits;
+- compile time of `fit` per (family, solver): first call minus a warm call.
+
+Both sides start from the same point (kc = r^2/2, kl = 0.1 r, kq = 1) and use the same
+tolerances (1e-8: scipy's ftol = xtol = gtol, attenfit's rtol = atol); the table reports
+the final losses (0.5 sum r^2) so "as fast" never means "less converged". Medians over
+repeats, and ratios measured in the same run (the machine is shared: absolute times vary).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+
+import jax
+import numpy as np
+
+jax.config.update("jax_enable_x64", True)
+
+import attenfit as af  # noqa: E402
+from attenfit import _fit  # noqa: E402
+
+N = 256
+TOL = 1e-8
+
+
+def _problem(radii: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    x = np.linspace(0.0, 1.0, N)
+    d = radii[:, None] * (0.05 + 20 * x[None, :])
+    s = np.sqrt(d * d + radii[:, None] ** 2)
+    return d, 2 / (s * (s + d))
+
+
+def _start(r):
+    return np.asarray(r) ** 2 / 2, 0.1 * np.asarray(r), np.ones_like(np.asarray(r, float))
+
+
+def _scipy_fit(d: np.ndarray, t: np.ndarray, r: float):
+    from scipy.optimize import least_squares
+
+    def res(p):
+        return (1 / (p[0] + d * (p[1] + p[2] * d)) - t) / t
+
+    def jac(p):
+        f = 1 / (p[0] + d * (p[1] + p[2] * d))
+        g = -f * f / t
+        return np.stack([g, g * d, g * d * d], axis=1)
+
+    kc, kl, kq = _start(r)
+    return least_squares(
+        res,
+        np.array([kc, kl, kq], float),
+        jac=jac,
+        method="lm",
+        ftol=TOL,
+        xtol=TOL,
+        gtol=TOL,
+    )
+
+
+def _median_time(fn, repeats: int) -> tuple[float, object]:
+    out = fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times), out
+
+
+def bench_single(repeats: int = 30) -> None:
+    r = 1.0
+    d, t = _problem(np.array([r]))
+    d, t = d[0], t[0]
+    kc, kl, kq = _start(r)
+    model = af.Polynomial(kc=float(kc), kl=float(kl), kq=float(kq))
+    t_af, res = _median_time(lambda: af.fit(model, d, t, rtol=TOL, atol=TOL), repeats)
+    t_sp, sol = _median_time(lambda: _scipy_fit(d, t, r), repeats)
+    print("\none fit (polynomial vs Yuksel's curve, 256 samples)")
+    print(f"  attenfit.fit        {t_af * 1e3:8.3f} ms  loss {res.loss:.10g}  steps {res.steps}")
+    print(f"  scipy least_squares {t_sp * 1e3:8.3f} ms  loss {sol.cost:.10g}  nfev {sol.nfev}")
+    print(f"  ratio scipy / attenfit = {t_sp / t_af:.2f}  (target >= 1)")
+
+
+def bench_batch(batch: int = 1000, repeats: int = 5) -> None:
+    rng = np.random.default_rng(0)
+    radii = np.exp(rng.uniform(np.log(0.05), np.log(2.0), batch))
+    d, t = _problem(radii)
+    kc, kl, kq = _start(radii)
+    model = af.Polynomial(kc=kc, kl=kl, kq=kq)
+    t0 = time.perf_counter()
+    af.fit_many(model, d, t, rtol=TOL, atol=TOL)
+    first = time.perf_counter() - t0
+    t_af, res = _median_time(lambda: af.fit_many(model, d, t, rtol=TOL, atol=TOL), repeats)
+
+    def loop():
+        return [_scipy_fit(d[i], t[i], radii[i]) for i in range(batch)]
+
+    t_sp, sols = _median_time(loop, max(1, repeats // 2))
+    sp_loss = np.array([s.cost for s in sols])
+    worse = (res.loss - sp_loss) / sp_loss
+    print(f"\n{batch} fits (radii 0.05..2), one fit_many call vs a scipy loop")
+    print(
+        f"  attenfit.fit_many   {t_af * 1e3:8.1f} ms  (first call incl. compile {first:.2f} s); "
+        f"converged {int(res.converged.sum())}/{batch}; steps median {np.median(res.steps):.0f}, max {res.steps.max()}"
+    )
+    print(
+        f"  scipy loop          {t_sp * 1e3:8.1f} ms  nfev median {np.median([s.nfev for s in sols]):.0f}"
+    )
+    print(
+        f"  final loss: attenfit - scipy, relative: max {worse.max():+.2e}, median {np.median(worse):+.2e}"
+    )
+    print(f"  ratio scipy / attenfit = {t_sp / t_af:.1f}  (target >= 30)")
+
+
+def bench_compile() -> None:
+    d, t = _problem(np.array([1.0]))
+    d, t = d[0], t[0]
+    print("\ncompile time of fit (first call minus a warm call), per (family, solver)")
+    cases = [("polynomial", s) for s in ("levenberg_marquardt", "dogleg", "gauss_newton", "bfgs")]
+    cases += [("yuksel", "levenberg_marquardt"), ("frostbite_window", "levenberg_marquardt")]
+    for family, solver in cases:
+        model = af.get_family(family)()
+        _fit._COMPILED.clear()
+        jax.clear_caches()
+        t0 = time.perf_counter()
+        af.fit(model, d, t, solver=solver)
+        first = time.perf_counter() - t0
+        warm, _ = _median_time(lambda m=model, s=solver: af.fit(m, d, t, solver=s), 5)
+        print(f"  {family:18s} {solver:20s} {first - warm:6.2f} s  (target < 3 s)")
+
+
+def main() -> None:
+    bench_single()
+    bench_batch()
+    bench_compile()
+
+
+if __name__ == "__main__":
+    main()
