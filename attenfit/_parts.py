@@ -30,6 +30,7 @@ __all__ = [
     "cutoff_bias",
     "distance",
     "inverse_square",
+    "keep_nan",
     "linear_tail_window",
     "monotone_cubic",
     "polynomial",
@@ -96,6 +97,11 @@ def distance(d: Real) -> Real:
     curve, not half of it.
     """
     return jnp.where(d < 0, jnp.zeros_like(d), d)
+
+
+def keep_nan(d: Real, f: Real) -> Real:
+    """f, with NaN wherever d is NaN (clamps written with `where` would otherwise hide it)."""
+    return jnp.where(jnp.isnan(d), jnp.full_like(f, jnp.nan), f)
 
 
 def stable_hypot(a: Real, b: Real) -> Real:

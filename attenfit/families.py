@@ -75,7 +75,7 @@ class InverseSquare(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         (d,) = parts.promote(d)
-        return parts.inverse_square(parts.distance(d))
+        return parts.keep_nan(d, parts.inverse_square(parts.distance(d)))
 
 
 @register_family
@@ -99,7 +99,7 @@ class UnrealEpsilon(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, eps = parts.promote(d, self.eps)
-        return parts.softened_inverse_square(parts.distance(d), jnp.sqrt(eps))
+        return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), jnp.sqrt(eps)))
 
 
 @register_family
@@ -123,7 +123,7 @@ class Clamped(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r_min = parts.promote(d, self.r_min)
-        return parts.clamped_inverse_square(parts.distance(d), r_min)
+        return parts.keep_nan(d, parts.clamped_inverse_square(parts.distance(d), r_min))
 
 
 # ----------------------------------------------------------------------------- Yuksel and disk
@@ -151,7 +151,7 @@ class Yuksel(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
-        return parts.yuksel(parts.distance(d), r)
+        return parts.keep_nan(d, parts.yuksel(parts.distance(d), r))
 
 
 @register_family
@@ -175,7 +175,9 @@ class YukselAdhoc(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
-        return parts.softened_inverse_square(parts.distance(d), r * math.sqrt(0.5))
+        return parts.keep_nan(
+            d, parts.softened_inverse_square(parts.distance(d), r * math.sqrt(0.5))
+        )
 
 
 @register_family
@@ -200,7 +202,7 @@ class DiskFacing(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
-        return parts.softened_inverse_square(parts.distance(d), r)
+        return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), r))
 
 
 @register_family
@@ -230,7 +232,7 @@ class Polynomial(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, kc, kl, kq = parts.promote(d, self.kc, self.kl, self.kq)
-        return parts.polynomial(parts.distance(d), kc, kl, kq)
+        return parts.keep_nan(d, parts.polynomial(parts.distance(d), kc, kl, kq))
 
 
 # ----------------------------------------------------------------------------- Madams
@@ -256,7 +258,9 @@ class MadamsSphere(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
-        return parts.surface_sphere(parts.surface_distance(parts.distance(d), r), r)
+        return parts.keep_nan(
+            d, parts.surface_sphere(parts.surface_distance(parts.distance(d), r), r)
+        )
 
 
 @register_family
@@ -289,7 +293,7 @@ class MadamsCutoff(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r, c = parts.promote(d, self.r, self.cutoff)
-        return parts.cutoff_bias(parts.distance(d), r, c) / (r * r)
+        return parts.keep_nan(d, parts.cutoff_bias(parts.distance(d), r, c) / (r * r))
 
 
 @register_family
@@ -327,7 +331,7 @@ class MadamsTan(Family):
         gap = parts.surface_gap(d, r, d_max)
         warped, inside = parts.tan_warp(parts.surface_distance(d, r), d_max, gap)
         f = parts.surface_sphere(warped, r)
-        return jnp.where(inside, f, jnp.zeros_like(f))
+        return parts.keep_nan(d, jnp.where(inside, f, jnp.zeros_like(f)))
 
 
 @register_family
@@ -363,7 +367,7 @@ class MadamsRational(Family):
         gap = parts.surface_gap(d, r, d_max)
         warped, inside = parts.rational_warp(parts.surface_distance(d, r), d_max, gap)
         f = parts.surface_sphere(warped, r)
-        return jnp.where(inside, f, jnp.zeros_like(f))
+        return parts.keep_nan(d, jnp.where(inside, f, jnp.zeros_like(f)))
 
 
 # ----------------------------------------------------------------------------- windowed engines
@@ -392,7 +396,9 @@ class UnrealWindow(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, eps, r_max = parts.promote(d, self.eps, self.r_max)
         d = parts.distance(d)
-        return parts.softened_inverse_square(d, jnp.sqrt(eps)) * parts.smooth_window(d, r_max)
+        return parts.keep_nan(
+            d, parts.softened_inverse_square(d, jnp.sqrt(eps)) * parts.smooth_window(d, r_max)
+        )
 
 
 @register_family
@@ -422,7 +428,9 @@ class FrostbiteWindow(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r_min, r_max = parts.promote(d, self.r_min, self.r_max)
         d = parts.distance(d)
-        return parts.clamped_inverse_square(d, r_min) * parts.smooth_window(d, r_max)
+        return parts.keep_nan(
+            d, parts.clamped_inverse_square(d, r_min) * parts.smooth_window(d, r_max)
+        )
 
 
 @register_family
@@ -451,7 +459,9 @@ class Godot(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, a, r_max = parts.promote(d, self.a, self.r_max)
         d = parts.distance(d)
-        return parts.smooth_window(d, r_max) * parts.power_min_distance(d, a, 1e-4)
+        return parts.keep_nan(
+            d, parts.smooth_window(d, r_max) * parts.power_min_distance(d, a, 1e-4)
+        )
 
 
 @register_family
@@ -485,7 +495,7 @@ class CryEngineLinear(Family):
         d, r_min, r_max = parts.promote(d, self.r_min, self.r_max)
         d = parts.distance(d)
         fade = parts.linear_tail_window(d, r_max, 0.2, 2 if self.squared else 1)
-        return parts.clamped_inverse_square(d, r_min) * fade
+        return parts.keep_nan(d, parts.clamped_inverse_square(d, r_min) * fade)
 
 
 @register_family
@@ -512,7 +522,7 @@ class JustCause2(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, scale, r_max = parts.promote(d, self.scale, self.r_max)
-        return scale * parts.smooth_window(parts.distance(d), r_max, 2, 2)
+        return parts.keep_nan(d, scale * parts.smooth_window(parts.distance(d), r_max, 2, 2))
 
 
 @register_family
@@ -541,7 +551,7 @@ class UnrealExponent(Family):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, scale, r_max, p = parts.promote(d, self.scale, self.r_max, self.p)
-        return scale * parts.smooth_window(parts.distance(d), r_max, 2, p)
+        return parts.keep_nan(d, scale * parts.smooth_window(parts.distance(d), r_max, 2, p))
 
 
 @register_family
@@ -570,7 +580,9 @@ class ThreeJS(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, decay, cutoff = parts.promote(d, self.decay, self.cutoff)
         d = parts.distance(d)
-        return parts.power_clamped_value(d, decay, 0.01) * parts.smooth_window(d, cutoff)
+        return parts.keep_nan(
+            d, parts.power_clamped_value(d, decay, 0.01) * parts.smooth_window(d, cutoff)
+        )
 
 
 @register_family
@@ -604,7 +616,7 @@ class GltfRange(Family):
         x = jnp.where(near, d, jnp.zeros_like(d)) / rng
         f_near = parts.inverse_square(d) - (x / rng) * (x / rng)
         f_far = parts.inverse_square(jnp.where(near, rng, d)) * parts.smooth_window(d, rng, 4, 1)
-        return jnp.where(near, f_near, f_far)
+        return parts.keep_nan(d, jnp.where(near, f_near, f_far))
 
 
 # ----------------------------------------------------------------------------- spline
@@ -674,4 +686,4 @@ class Spline(Family):
         d_far = jnp.where(far, d, jnp.full_like(d, kn))
         ratio = kn / d_far
         f_far = jnp.exp(values[..., -1]) * ratio * ratio
-        return jnp.where(mid, f_mid, jnp.where(far, f_far, f_first))
+        return parts.keep_nan(d, jnp.where(mid, f_mid, jnp.where(far, f_far, f_first)))
