@@ -600,9 +600,11 @@ def trace(family: Family) -> Program:
     closed = jax.make_jaxpr(fn)(*args)
     out_aval = closed.out_avals[0]
     if tuple(out_aval.shape) != ():
+        shapes = {n: values[n].shape for n in names if values[n].shape}
         raise BadValueError(
-            f"family {family.name!r} returns shape {tuple(out_aval.shape)} for a scalar d; "
-            "export and cost need a scalar result (scalar parameters, or arrays it reduces)"
+            f"family {family.name!r} returns shape {tuple(out_aval.shape)} for a scalar d "
+            f"(parameter shapes {shapes}); export and cost take one set of parameters, "
+            "not a batch: pick one problem"
         )
     b = _Builder()
     d = b.new_var("f32")

@@ -49,7 +49,7 @@ import numpy as np
 
 from ._errors import BadTypeError, BadValueError
 from ._family import Family, get_family, list_families
-from ._trace import Program, Var, trace
+from ._trace import Program, Var, _float32_family, trace
 
 __all__ = [
     "CATEGORIES",
@@ -211,17 +211,6 @@ def shader_cost(family: Family | type[Family] | str | Program) -> float:
 
 
 # ----------------------------------------------------------------------------- throughput
-def _float32(family: Family) -> Family:
-    def cast(x: Any) -> Any:
-        if isinstance(x, float) or (
-            hasattr(x, "dtype") and np.issubdtype(np.dtype(x.dtype), np.floating)
-        ):
-            return jnp.asarray(x, jnp.float32)
-        return x
-
-    return jax.tree.map(cast, family)
-
-
 def _reference() -> Family:
     return get_family("inverse_square")()
 
@@ -267,7 +256,7 @@ def measure_throughput(
     d = jax.device_put(jnp.asarray(np.geomspace(lo, hi, n), jnp.float32))
     fns = []
     for fam in fams:
-        fam32 = _float32(fam)
+        fam32 = _float32_family(fam)
         fn = jax.jit(lambda x, fam32=fam32: fam32(x))
         fn(d).block_until_ready()  # compile
         start = time.perf_counter()

@@ -118,8 +118,13 @@ def test_weights_follow_the_documented_composition():
 
 
 def test_cost_table_without_measuring_covers_every_family():
-    table = cost.cost_table(measure=False)
-    assert list(table) == attenfit.list_families()
+    names = [
+        n
+        for n in attenfit.list_families()
+        if attenfit.get_family(n).__module__ == "attenfit.families"
+    ]
+    table = cost.cost_table(names, measure=False)
+    assert list(table) == names and len(names) >= 20
     for name, c in table.items():
         assert c.ns_per_eval is None and c.ratio_to_inverse_square is None
         assert set(c.ops) == set(cost.CATEGORIES)
