@@ -73,6 +73,7 @@ from . import cost as cost
 from . import export as export
 from .cost import Cost as Cost
 from .cost import ParetoFront as ParetoFront
+from .cost import cheapest_within as cheapest_within
 from .cost import cost_table as cost_table
 from .cost import count_ops as count_ops
 from .cost import family_cost as family_cost

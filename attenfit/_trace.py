@@ -705,6 +705,9 @@ def _numpy_op(op: Op, args: list[Any]) -> Any:
         return np.asarray(args[0]).astype(
             {"f32": np.float32, "i32": np.int32, "bool": np.bool_}[op.out.dtype]
         )
+    if op.prim == "div" and op.out.dtype == "i32":  # XLA truncates towards zero, as C does
+        a, b = (np.asarray(x, np.int64) for x in args)
+        return (np.sign(a) * np.sign(b) * (np.abs(a) // np.abs(b))).astype(np.int32)
     if op.prim in ("and", "or", "not") and op.out.dtype == "i32":
         fn = {"and": np.bitwise_and, "or": np.bitwise_or, "not": np.invert}[op.prim]
         return fn(*args)

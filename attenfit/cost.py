@@ -14,8 +14,8 @@ Three views of the same question, so that a ranking never rests on a noisy clock
 * **Shader cost** (`shader_cost`): one weighted number, in units of one full-rate FP32 ALU
   instruction (add, mul or fused multiply-add), with the weights of `SHADER_WEIGHTS`.
 
-`family_cost(family)` and `cost_table(families)` return `Cost` records; `pareto_front`
-and `plot_cost_vs_error` put them against each family's error.
+`family_cost(family)` and `cost_table(families)` return `Cost` records; `pareto_front`,
+`cheapest_within` and `plot_cost_vs_error` put them against each family's error.
 
 Notes
 -----
@@ -56,6 +56,7 @@ __all__ = [
     "SHADER_WEIGHTS",
     "Cost",
     "ParetoFront",
+    "cheapest_within",
     "cost_table",
     "count_ops",
     "family_cost",
@@ -406,6 +407,28 @@ def pareto_front(
     front = tuple(k for k in order if not any(dominates(o, k) for o in order if o != k))
     dominated = {k: next(f for f in front if dominates(f, k)) for k in order if k not in front}
     return ParetoFront(front=front, dominated=dominated, cost=cost, error=err)
+
+
+def cheapest_within(
+    errors: Mapping[str, float],
+    costs: Mapping[str, float | Cost],
+    tolerance: float,
+    *,
+    by: str = "shader_cost",
+) -> list[str]:
+    """The families whose error is at most `tolerance`, cheapest first.
+
+    Ties in cost are broken by the smaller error, then by name; NaN errors never qualify.
+    The first entry is the recommendation, the second the runner-up; an empty list means
+    no family meets the tolerance. `by` is as in `pareto_front`.
+    """
+    if not (isinstance(tolerance, int | float) and tolerance >= 0):
+        raise BadValueError(f"tolerance must be a number >= 0, got {tolerance!r}")
+    missing = sorted(set(errors) - set(costs))
+    if missing:
+        raise BadValueError(f"families {missing} have an error but no cost")
+    ok = [k for k, e in errors.items() if float(e) <= tolerance]
+    return sorted(ok, key=lambda k: (_cost_value(costs[k], by), float(errors[k]), k))
 
 
 def plot_cost_vs_error(

@@ -232,3 +232,14 @@ def test_numpy_evaluation_of_the_traced_program_matches_jax():
         want = np.asarray(fam(jnp.asarray(d)))
         got = trace(fam).evaluate_numpy(d)
         np.testing.assert_allclose(got, want, rtol=2e-6, atol=0)
+
+
+def test_cheapest_within_tolerance():
+    assert cost.cheapest_within(ERRORS, COSTS, 0.2) == ["b", "g", "c", "d", "e"]
+    assert cost.cheapest_within(ERRORS, COSTS, 0.05) == ["d", "e"]
+    assert cost.cheapest_within(ERRORS, COSTS, 1e-3) == []
+    assert cost.cheapest_within(ERRORS, COSTS, 1.0)[0] == "a"  # f's NaN error never qualifies
+    with pytest.raises(attenfit.BadValueError, match="tolerance must be"):
+        cost.cheapest_within(ERRORS, COSTS, -1.0)
+    with pytest.raises(attenfit.BadValueError, match="no cost"):
+        cost.cheapest_within({"zz": 0.0}, COSTS, 1.0)
