@@ -452,3 +452,16 @@ def test_cli_export_errors(argv, message, capsys):
 
     assert main(argv) == 2
     assert capsys.readouterr().err == f"attenfit: error: {message}\n"
+
+
+def test_a_real_fit_result_is_exported_with_its_error():
+    d = np.geomspace(0.01, 2.0, 64)
+    target = 1 / (d * d + 0.1**2)  # the facing disk of radius 0.1 (closed form)
+    res = attenfit.fit(attenfit.get_family("yuksel")(), d, target)
+    src = ex.export(res, "c")
+    r = float(np.float32(res.params["r"]))
+    assert f"const float r = {ex.float32_literal(r)}f;" in src
+    assert f"max_rel_error = {res.metrics['max_rel_error']:.3g}" in src
+    assert f"converged = {res.converged}" in src
+    again = ex.export(res.to_dict(), "c")  # what `attenfit fit --out` writes
+    assert again[again.index("{") :] == src[src.index("{") :]
