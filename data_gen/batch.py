@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
+from attenfit import Dataset
 from attenfit._atomic import atomic_write, check_output_path
-from attenfit._dataset import Dataset
 from attenfit._errors import BadValueError, DataFileError
 
 from .estimate import Estimate, estimate_detail

@@ -54,7 +54,15 @@ from jaxtyping import Float
 
 from attenfit._errors import BadTypeError, BadValueError
 
-from .scenes import LIGHT_TYPES, CapsuleLight, Light, Plane, light_spheres, scene_components
+from .scenes import (
+    LIGHT_TYPES,
+    CapsuleLight,
+    DiskLight,
+    Light,
+    Plane,
+    light_spheres,
+    scene_components,
+)
 from .variants import select_variant, use_variant
 
 __all__ = [
@@ -71,6 +79,9 @@ MAX_SPP = 1 << 24
 STRATEGIES = ("auto", "mis", "emitter")
 _FLOOR_REL = 2.0**-20
 _CONE_COS_ERR = 2.0**-23
+# Mitsuba offsets ray origins by about (1 + max|p|) * 89 * 2^-24 (`Interaction::offset_p`):
+# a receiver closer than this to a disk's surface starts its rays on the other side.
+_RAY_EPS = 1024 * 2.0**-24
 
 Progress = Callable[[int, int], None]
 
@@ -125,6 +136,18 @@ def _check_args(lights, points, normals, spp, seed, first_index):
                 raise BadValueError(
                     f"points[{i}] is inside or on a light (distance {dist[i]:.6g} to a sphere "
                     f"of radius {sphere.radius:g}); receivers must lie outside"
+                )
+        if isinstance(light, DiskLight):
+            m = np.asarray(light.normal)
+            z = (p - np.asarray(light.center)) @ m
+            s = np.linalg.norm((p - np.asarray(light.center)) - z[:, None] * m, axis=1)
+            tol = _RAY_EPS * (1.0 + np.abs(p).max(axis=1))
+            on = np.flatnonzero((np.abs(z) <= tol) & (s <= light.radius * (1 + 1e-6)))
+            if on.size:
+                i = int(on[0])
+                raise BadValueError(
+                    f"points[{i}] lies on a disk light (in its plane, {s[i]:.6g} from its centre, "
+                    f"radius {light.radius:g}); move receivers off the light"
                 )
         if isinstance(light, CapsuleLight):
             a, b = np.asarray(light.a), np.asarray(light.b)

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from attenfit._dataset import Dataset
+from attenfit import Dataset
 from attenfit._errors import BadTypeError, BadValueError
 
 from .estimate import Estimate, Progress, estimate_detail
