@@ -394,6 +394,19 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         final = from_u(u, values)
         pvec = jnp.concatenate([final[p].reshape(-1) for p in free])
         jac = jax.jacfwd(lambda pv: residual(split(pv, final), d, target, weights))(pvec)
+        # First-order optimality (MINPACK's gtol test, as scipy's least_squares): the
+        # cosine between the residual vector and each Jacobian column, ignoring parameters
+        # on their bound. optimistix's BFGS, for one, never stops at an exact optimum.
+        r_fin = residual(final, d, target, weights)
+        col = jnp.sqrt(jnp.sum(jac * jac, axis=0))
+        rnorm = jnp.sqrt(jnp.sum(r_fin * r_fin))
+        cos = jnp.abs(r_fin @ jac) / jnp.where(col * rnorm > 0, col * rnorm, 1)
+        cos = jnp.where(jnp.stack(at_bound), 0, cos)
+        grad_ok = jnp.all(jnp.isfinite(cos)) & (jnp.max(cos, initial=0) <= rtol)
+        # ...or residuals at rounding level (an exact fit: the cosine is then noise)
+        eps = jnp.finfo(dtype).eps
+        exact = rnorm <= 64 * eps * jnp.sqrt(jnp.asarray(d.shape[-1], dtype)) * jnp.max(weights)
+        grad_ok = grad_ok | exact
         f = spec.evaluate(d, final).astype(dtype)
         pos = target > 0
         rel = jnp.where(pos, jnp.abs(f - target) / jnp.where(pos, target, 1), 0)
@@ -409,6 +422,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             max_rel=jnp.max(rel),
             rms_rel=jnp.sqrt(jnp.sum(rel * rel) / npos),
             at_bound=jnp.stack(at_bound),
+            grad_ok=grad_ok,
         )
 
     return problem
@@ -451,8 +465,18 @@ _MESSAGES = tuple(optx.RESULTS._index_to_message)
 _RESULT_NAMES = {item._value.item(): name for name, item in optx.RESULTS._name_to_item.items()}
 
 
+_MAX_STEPS = optx.RESULTS.nonlinear_max_steps_reached._value.item()
+
+
+def _converged(code, start_finite, loss, grad_ok):
+    """Converged: optimistix succeeded, or stopped at max steps on a first-order optimum."""
+    code = np.asarray(code)
+    ok = (code == 0) | ((code == _MAX_STEPS) & np.asarray(grad_ok))
+    return ok & np.asarray(start_finite) & np.isfinite(loss)
+
+
 def _message(
-    code: int, start_finite: bool, loss: float, at_bound: Sequence[str]
+    code: int, start_finite: bool, loss: float, at_bound: Sequence[str], grad_ok: bool
 ) -> tuple[bool, str]:
     notes = []
     if at_bound:
@@ -462,10 +486,13 @@ def _message(
         if code:
             msg += f"; optimistix: {_MESSAGES[code].splitlines()[0]}"
         return False, msg
-    if code:
-        return False, "; ".join([f"optimistix: {' '.join(_MESSAGES[code].split())}", *notes])
     if not math.isfinite(loss):
         return False, "the loss at the solution is not finite"
+    if code == _MAX_STEPS and grad_ok:
+        note = "converged (first-order optimal: residuals orthogonal to the Jacobian within rtol, or at rounding level; optimistix reached max_steps)"
+        return True, "; ".join([note, *notes])
+    if code:
+        return False, "; ".join([f"optimistix: {' '.join(_MESSAGES[code].split())}", *notes])
     return True, "; ".join(["converged", *notes])
 
 
@@ -637,7 +664,9 @@ def _make_result(
     at_bound = tuple(dict.fromkeys(p for p, b in zip(flat_names, bound_flags, strict=True) if b))
     code = int(pick(out["result"]))
     loss = float(pick(out["loss"]))
-    converged, message = _message(code, bool(pick(out["start_finite"])), loss, at_bound)
+    converged, message = _message(
+        code, bool(pick(out["start_finite"])), loss, at_bound, bool(pick(out["grad_ok"]))
+    )
     k = len(pvec)
     metrics = {
         "max_rel_error": float(pick(out["max_rel"])),
@@ -783,7 +812,9 @@ class FitResults(Sequence):
             else:
                 self.params[nm] = np.broadcast_to(values[nm], (batch, *shape))
         codes = out["result"]
-        self.converged: np.ndarray = (codes == 0) & out["start_finite"] & np.isfinite(out["loss"])
+        self.converged: np.ndarray = _converged(
+            codes, out["start_finite"], out["loss"], out["grad_ok"]
+        )
         self.steps: np.ndarray = out["steps"]
         self.loss: np.ndarray = out["loss"]
 

@@ -23,6 +23,7 @@ from collections.abc import Callable
 from typing import Any
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import lineax as lx
 import optimistix as optx
@@ -44,7 +45,8 @@ class SettlingTrustRegion(optx.AbstractSearch):
 
     def init(self, y, f_info_struct):
         state = self.inner.init(y, f_info_struct)
-        return eqx.tree_at(lambda s: s.step_size, state, jnp.array(self.initial_step_size))
+        dtype = jnp.result_type(*jax.tree_util.tree_leaves(y))  # float32 fits stay float32
+        return eqx.tree_at(lambda s: s.step_size, state, jnp.asarray(self.initial_step_size, dtype))
 
     def step(self, first_step, y, y_eval, f_info, f_eval_info, state):
         step_size, accept, result, new_state = self.inner.step(

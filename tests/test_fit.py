@@ -1,93 +1,305 @@
 """Tests of the fitting engine (`attenfit.fit`, `fit_many`, `fit_dataset`, the `fit` verb).
 
 Reference values are written out here independently (closed forms in numpy, scipy's
-`curve_fit` for the covariance), never taken from the code under test. The small families
-below are defined here so these tests do not depend on the family catalogue.
+`curve_fit` for the covariance), never taken from the code under test. Every distinct
+(family, solver, loss, guess, shape, dtype) compiles once (~1-3 s), so the tests share a
+few configurations: 256 samples, float64 unless a test is about float32.
 """
 
 from __future__ import annotations
 
-from typing import ClassVar
+import json
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import attenfit as af
+from attenfit import _fit
+from attenfit.cli import main
 
-
-class Poly(af.Family):
-    """1/(kc + kl d + kq d^2) (the OpenGL polynomial), all coefficients nonnegative."""
-
-    kc: float = 1.0
-    kl: float = 0.0
-    kq: float = 1.0
-    name: ClassVar[str] = "polynomial"
-    formula: ClassVar[str] = "1/(kc + kl d + kq d^2)"
-    source: ClassVar[str] = "test"
-    default_free: ClassVar[tuple[str, ...]] = ("kc", "kl", "kq")
-    constraints: ClassVar[dict[str, str]] = {
-        "kc": "nonnegative",
-        "kl": "nonnegative",
-        "kq": "nonnegative",
-    }
-
-    def __call__(self, d):
-        d = jnp.asarray(d)
-        return 1 / (self.kc + d * (self.kl + self.kq * d))
-
-
-class Yuk(af.Family):
-    """Yuksel 2020 eq. 7, 2/(s (s + d)), s = sqrt(d^2 + r^2)."""
-
-    r: float = 0.1
-    name: ClassVar[str] = "yuk_test"
-    formula: ClassVar[str] = "2/(s(s+d))"
-    source: ClassVar[str] = "test"
-    default_free: ClassVar[tuple[str, ...]] = ("r",)
-    length_params: ClassVar[tuple[str, ...]] = ("r",)
-
-    def __call__(self, d):
-        d = jnp.asarray(d)
-        s = jnp.sqrt(d * d + self.r * self.r)
-        return 2 / (s * (s + d))
-
-
-D = np.linspace(0.01, 20.0, 256)
+N = 256
+D = np.linspace(0.01, 20.0, N)
 
 
 def yuksel_np(d, r):
+    """Yuksel 2020 eq. 7 written out: 2/r^2 (1 - d/sqrt(d^2 + r^2))."""
+    return 2 / r**2 * (1 - d / np.sqrt(d * d + r * r))
+
+
+def yuksel_stable(d, r):
     s = np.sqrt(d * d + r * r)
     return 2 / (s * (s + d))
 
 
+# ----------------------------------------------------------------------------- known answers
 def test_self_generated_data_recovers_parameters():
-    target = yuksel_np(D, 0.7)
-    res = af.fit(Yuk(r=3.0), D, target)
+    target = yuksel_stable(D, 0.7)
+    res = af.fit(af.Yuksel(r=3.0), D, target)
     assert res.converged, res.message
     assert abs(res.params["r"] - 0.7) < 1e-6
+    assert isinstance(res.params["r"], float)
     assert res.dtype == "float64"
     assert res.metrics["max_rel_error"] < 1e-9
+    assert isinstance(res.model, af.Yuksel) and float(res.model.r) == res.params["r"]
+
+
+def test_far_start_converges_or_says_so():
+    target = yuksel_stable(D, 0.7)
+    for start in (1e-4, 1e4):
+        res = af.fit(af.Yuksel(r=start), D, target)
+        if res.converged:
+            assert abs(res.params["r"] - 0.7) < 1e-6
+        else:
+            assert res.message != "converged"
+    # without the data-derived start too
+    res = af.fit(af.Yuksel(r=1e4), D, target, guess=False)
+    assert (res.converged and abs(res.params["r"] - 0.7) < 1e-6) or not res.converged
 
 
 def test_polynomial_recovers_madams_sphere_curve():
-    # Madams 2011: f = 1/(d_s + r)^2 in surface distance d_s; times r^2 it is
-    # 1/(1 + 2 d_s/r + d_s^2/r^2), so kc = 1, kl = 2/r, kq = 1/r^2.
+    # Madams 2011: f = 1/(d_s + r)^2 in surface distance d_s. Times r^2 that is
+    # 1/(1 + 2 d_s/r + d_s^2/r^2): kc = 1, kl = 2/r, kq = 1/r^2.
     r = 0.25
-    ds = np.linspace(0.0, 10.0, 256)
+    ds = np.linspace(0.0, 10.0, N)
     target = r**2 / (ds + r) ** 2
-    res = af.fit(Poly(kc=2.0, kl=1.0, kq=1.0), ds, target)
+    res = af.fit(af.Polynomial(kc=2.0, kl=1.0, kq=1.0), ds, target)
     assert res.converged, res.message
-    np.testing.assert_allclose(
-        [res.params["kc"], res.params["kl"], res.params["kq"]], [1, 2 / r, 1 / r**2], rtol=1e-6
-    )
+    got = [res.params["kc"], res.params["kl"], res.params["kq"]]
+    np.testing.assert_allclose(got, [1, 2 / r, 1 / r**2], rtol=1e-6)
+    assert res.at_bound == ()
 
 
 def test_bound_optimum_is_reached_and_reported():
-    # 1/(d^2 + r^2) is the polynomial with kl = 0 exactly: the optimum is on the bound.
+    # 1/(d^2 + r^2) is the polynomial with kl = 0: its optimum sits on the bound kl >= 0.
     r = 1.3
     target = 1 / (D**2 + r**2)
-    res = af.fit(Poly(kc=3.0, kl=1.0, kq=0.5), D, target, guess=False)
+    res = af.fit(af.Polynomial(kc=3.0, kl=1.0, kq=0.5), D, target, guess=False)
     assert res.converged, res.message
     assert res.params["kl"] == 0.0
-    assert "kl" in res.at_bound and "bound" in res.message
+    assert res.at_bound == ("kl",) and "bound" in res.message
     np.testing.assert_allclose([res.params["kc"], res.params["kq"]], [r**2, 1.0], rtol=1e-6)
+    assert "(on bound)" in str(res)
+
+
+def test_bound_optimum_with_residual_stays_on_the_bound():
+    # Against the inverse square law 1/d^2 (d >= 1) the best polynomial wants kc < 0:
+    # it must stop on kc = 0 and say so.
+    d = np.linspace(1.0, 20.0, N)
+    target = 1 / d**2 * (1 + 0.05 * np.sin(d))
+    res = af.fit(af.Polynomial(kc=1.0, kl=0.5, kq=1.0), d, target, guess=False)
+    assert res.converged, res.message
+    assert min(res.params.values()) >= 0
+    for p in res.at_bound:
+        assert res.params[p] == 0.0
+
+
+@pytest.mark.parametrize("solver", ["dogleg", "bfgs"])
+def test_other_solvers_reach_the_same_answer(solver):
+    r = 0.25
+    ds = np.linspace(0.0, 10.0, N)
+    target = r**2 / (ds + r) ** 2
+    res = af.fit(af.Polynomial(kc=2.0, kl=1.0, kq=1.0), ds, target, solver=solver)
+    assert res.converged, res.message
+    assert res.solver == solver
+    np.testing.assert_allclose(
+        [res.params["kc"], res.params["kl"], res.params["kq"]], [1, 2 / r, 1 / r**2], rtol=1e-5
+    )
+
+
+def test_gauss_newton_without_damping_fails_visibly_on_a_rational_family():
+    # Undamped Gauss-Newton from a far start jumps past the pole of 1/(kc + kl d + kq d^2):
+    # the result must say it did not converge (never raise, never claim success wrongly).
+    target = 1 / (D**2 + 1.3**2)
+    res = af.fit(
+        af.Polynomial(kc=50.0, kl=10.0, kq=0.01), D, target, solver="gauss_newton", guess=False
+    )
+    assert res.converged is False
+    assert res.message.startswith("optimistix:")
+    lm = af.fit(af.Polynomial(kc=50.0, kl=10.0, kq=0.01), D, target, guess=False)
+    assert lm.converged and abs(lm.params["kc"] - 1.69) < 1e-6
+
+
+# ----------------------------------------------------------------------------- user models
+def _hyperbolic(d, p):
+    return 1 / (p["a"] + d * d) ** p["b"]
+
+
+def test_user_function_pair_and_nan_start_is_data():
+    target = 1 / (D * D + 0.5)
+    res = af.fit((_hyperbolic, {"a": 2.0, "b": 0.7}), D, target)
+    assert res.converged, res.message
+    np.testing.assert_allclose([res.params["a"], res.params["b"]], [0.5, 1.0], rtol=1e-6)
+    fn, params = res.model
+    assert fn is _hyperbolic and params == res.params
+    # a start where the model is NaN (negative base to a fractional power): data, not error
+    bad = af.fit((_hyperbolic, {"a": -1.0, "b": 0.7}), D, target)
+    assert not bad.converged
+    assert "not finite" in bad.message
+
+
+# ----------------------------------------------------------------------------- covariance
+def test_covariance_matches_scipy_curve_fit():
+    from scipy.optimize import curve_fit
+
+    rng = np.random.default_rng(3)
+    r = 0.25
+    ds = np.linspace(0.0, 10.0, N)
+    truth = r**2 / (ds + r) ** 2
+    target = truth * (1 + 0.01 * rng.standard_normal(N))
+    res = af.fit(af.Polynomial(kc=2.0, kl=1.0, kq=1.0), ds, target)
+    assert res.converged
+
+    def model(d, kc, kl, kq):
+        return 1 / (kc + kl * d + kq * d * d)
+
+    # the relative loss is curve_fit with sigma = target (absolute_sigma=False)
+    popt, pcov = curve_fit(
+        model, ds, target, p0=[1, 8, 16], sigma=target, xtol=1e-14, ftol=1e-14, gtol=1e-14
+    )
+    np.testing.assert_allclose([res.params[p] for p in res.free], popt, rtol=1e-7)
+    np.testing.assert_allclose(res.covariance, pcov, rtol=1e-5)
+    np.testing.assert_allclose(list(res.stderr.values()), np.sqrt(np.diag(pcov)), rtol=1e-5)
+
+
+# ----------------------------------------------------------------------------- batches
+def test_fit_many_matches_a_loop_of_fit():
+    radii = np.array([0.05, 0.3, 0.7, 2.0])
+    target = np.stack([yuksel_stable(D, r) for r in radii])
+    target[2] *= 1 + 0.02 * np.cos(D)  # not in the family: a residual remains
+    starts = np.array([1.0, 0.1, 5.0, 0.5])
+    many = af.fit_many(af.Yuksel(r=starts), D, target)
+    assert len(many) == 4 and many.params["r"].shape == (4,)
+    for i in range(4):
+        one = af.fit(af.Yuksel(r=float(starts[i])), D, target[i])
+        assert many[i].converged == one.converged
+        np.testing.assert_allclose(many[i].params["r"], one.params["r"], rtol=1e-9)
+        np.testing.assert_allclose(many[i].loss, one.loss, rtol=1e-7, atol=1e-25)
+    np.testing.assert_allclose(many.params["r"][[0, 1, 3]], radii[[0, 1, 3]], rtol=1e-6)
+
+
+def test_float32_fit_works_and_says_so():
+    d32 = D.astype(np.float32)
+    target = yuksel_np(D, 0.7).astype(np.float32)
+    res = af.fit(af.Yuksel(r=2.0), d32, target)
+    assert res.dtype == "float32"
+    assert res.converged, res.message
+    assert abs(res.params["r"] - 0.7) < 1e-4
+    assert res.model(jnp.asarray(d32)).dtype == jnp.float32
+
+
+# ----------------------------------------------------------------------------- datasets
+class _FakeDataset:
+    """The `attenfit.Dataset` interface `fit_dataset` uses, with known weights."""
+
+    def __init__(self, d, weight, E, stderr):
+        self._d, self._w, self.E, self.stderr = d, weight, E, stderr
+
+    def distance(self):
+        return self._d
+
+    def weight(self):
+        return self._w
+
+
+def test_fit_dataset_fits_irradiance_and_drops_unlit_receivers():
+    r = 0.7
+    weight = np.where(np.arange(N) % 5 == 0, 0.0, 0.5 + np.cos(D) ** 2)  # some unlit
+    E = weight * yuksel_stable(D, r)
+    E[weight == 0] = 123.0  # garbage where unlit: must be ignored
+    res = af.fit_dataset(af.Yuksel(r=2.0), _FakeDataset(D, weight, E, np.zeros(N)))
+    assert res.converged and abs(res.params["r"] - r) < 1e-6
+    assert res.metrics["n"] == int(np.sum(weight > 0))
+    # with standard errors: residuals divided by them; an exact dataset fits the same
+    noisy = af.fit_dataset(af.Yuksel(r=2.0), _FakeDataset(D, weight, E, 1e-3 * E + 1e-9))
+    assert noisy.converged and abs(noisy.params["r"] - r) < 1e-6
+
+
+# ----------------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("kwargs", "error", "words"),
+    [
+        (dict(d=D[:10]), af.BadValueError, "d has shape (10,)"),
+        (dict(target=np.full(N, np.nan)), af.BadValueError, "target must be finite"),
+        (dict(target=-np.ones(N)), af.BadValueError, "target must be > 0"),
+        (dict(solver="newton"), af.UnknownNameError, "unknown solver 'newton'"),
+        (dict(loss="l1"), af.UnknownNameError, "unknown loss 'l1'"),
+        (dict(free=("radius",)), af.UnknownNameError, "free names 'radius'"),
+        (dict(d=np.array([]), target=np.array([])), af.BadValueError, "target is empty"),
+        (dict(d=np.arange(N)), af.BadTypeError, "floating-point"),
+        (dict(weights=-np.ones(N)), af.BadValueError, "weights must be finite and >= 0"),
+        (dict(max_steps=0), af.BadValueError, "max_steps"),
+        (
+            dict(model=(_hyperbolic, {"a": -1.0, "b": 1.0}, {"a": "positive"})),
+            af.BadValueError,
+            "start value of 'a' must be > 0",
+        ),
+        (dict(model=af.Yuksel), af.BadTypeError, "call it"),
+    ],
+)
+def test_bad_arguments_raise_before_compiling(kwargs, error, words):
+    args = dict(model=af.Yuksel(), d=D, target=yuksel_stable(D, 1.0))
+    args.update(kwargs)
+    model, d, target = args.pop("model"), args.pop("d"), args.pop("target")
+    before = len(_fit._COMPILED)
+    with pytest.raises(error) as info:
+        af.fit(model, d, target, **args)
+    assert words in str(info.value)
+    assert "\n" not in str(info.value)
+    assert len(_fit._COMPILED) == before
+
+
+def test_fit_many_rejects_wrong_batch_shape():
+    with pytest.raises(af.BadValueError, match="target must have shape"):
+        af.fit_many(af.Yuksel(), D, yuksel_stable(D, 1.0))
+
+
+# ----------------------------------------------------------------------------- result
+def test_result_report_and_json():
+    res = af.fit(af.Yuksel(r=3.0), D, yuksel_stable(D, 0.7) * (1 + 0.01 * np.sin(D)))
+    text = str(res)
+    assert text.startswith("[[Fit]] yuksel") and "[[Parameters]]" in text and "+/-" in text
+    row = json.loads(json.dumps(res.to_dict()))
+    assert row["family"] == "yuksel" and row["converged"] is True
+    assert row["params"]["r"] == res.params["r"] and row["dtype"] == "float64"
+
+
+# ----------------------------------------------------------------------------- CLI
+def test_cli_fit_built_in_configuration(tmp_path, capsys):
+    out = tmp_path / "fits"
+    code = main(["fit", "--family", "yuksel,polynomial", "--emitter", "disk", "--radius", "0.5",
+                 "--out", str(out), "--json"])  # fmt: skip
+    assert code == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["family"] for r in rows] == ["yuksel", "polynomial"]
+    # the facing disk is 1/(d^2 + r^2): the polynomial kc = r^2, kl = 0, kq = 1
+    poly = rows[1]["params"]
+    np.testing.assert_allclose([poly["kc"], poly["kl"], poly["kq"]], [0.25, 0, 1], atol=1e-9)
+    assert json.loads((out / "fits.json").read_text())[0]["family"] == "yuksel"
+    assert "[[Fit]] polynomial" in (out / "fits.txt").read_text()
+    # refuses to overwrite without --force
+    code = main(
+        ["fit", "--family", "yuksel", "--emitter", "disk", "--radius", "0.5", "--out", str(out)]
+    )
+    assert code == 2 and "exists" in capsys.readouterr().err
+
+
+def test_cli_fit_exit_codes(monkeypatch, capsys):
+    assert main(["fit", "--family", "nope", "--emitter", "disk", "--radius", "1"]) == 2
+    assert "unknown family 'nope'" in capsys.readouterr().err
+    assert main(["fit", "--family", "yuksel", "--emitter", "disk"]) == 2
+    assert "--radius" in capsys.readouterr().err
+    assert (
+        main(["fit", "--family", "yuksel", "--emitter", "disk", "--radius", "1", "--solver", "x"])
+        == 2
+    )
+    assert "unknown solver 'x'" in capsys.readouterr().err
+    real_fit = _fit.fit
+
+    def failing_fit(*args, **kwargs):
+        res = real_fit(*args, **kwargs)
+        return type(res)(**{**res.__dict__, "converged": False, "message": "optimistix: stuck"})
+
+    monkeypatch.setattr(_fit, "fit", failing_fit)
+    assert main(["fit", "--family", "yuksel", "--emitter", "disk", "--radius", "0.5"]) == 3
+    assert "did not converge" in capsys.readouterr().err
