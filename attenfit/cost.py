@@ -472,15 +472,12 @@ def plot_cost_vs_error(
         if on:
             fx, fy = [xs[k] for k in on], [ys[k] for k in on]
             ax.step(fx, fy, where="post", color="C3", lw=1.2, zorder=2)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
         groups: dict[tuple[float, float], list[str]] = {}
         for k in finite:  # families at the same point share one label
             groups.setdefault((xs[k], ys[k]), []).append(k)
-        for (x, y), ks in groups.items():
-            on_front = any(k in pf.front for k in ks)
-            ax.annotate(", ".join(ks), (x, y), xytext=(4, 3), textcoords="offset points",
-                        fontsize=7, color="C3" if on_front else "0.3")  # fmt: skip
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+        _place_labels(ax, groups, pf.front)
         ax.set_xlabel(xlabel)
         ax.set_ylabel("max relative error")
         bad = sorted(k for k, v in pf.error.items() if not np.isfinite(v))
@@ -490,6 +487,52 @@ def plot_cost_vs_error(
         if title:
             ax.set_title(title)
     return fig, ax
+
+
+def _place_labels(ax: Any, groups: Mapping[tuple[float, float], list[str]], front) -> None:
+    """Label each point, moving a label up or down (in points) until it overlaps no other."""
+    ax.autoscale_view()
+    ax.figure.canvas.draw()  # settle the layout, so that the data-to-display transform holds
+    to_pt = 72.0 / ax.figure.dpi
+    frame = [v * to_pt for v in ax.get_window_extent().extents]
+    placed: list[tuple[float, float, float, float]] = []
+    for x, y in groups:  # the markers are obstacles too
+        px, py = (v * to_pt for v in ax.transData.transform((x, y)))
+        placed.append((px - 3, py - 3, px + 3, py + 3))
+    offsets = [
+        (side, dy) for dy in (3, -10, 10, -17, 17, -24, 24, -31, 31, -38, 38) for side in (1, -1)
+    ]
+    order = sorted(groups.items(), key=lambda item: (item[0][0], -item[0][1]))
+    for (x, y), ks in order:
+        text = ", ".join(ks)
+        px, py = (v * to_pt for v in ax.transData.transform((x, y)))
+        w, h = 4.3 * len(text), 8.0  # 7-point labels
+
+        def box_of(o: tuple[int, float], px=px, py=py, w=w, h=h) -> tuple[float, ...]:
+            side, dy = o
+            left = px + 4 if side > 0 else px - 4 - w
+            return (left, py + dy, left + w, py + dy + h)
+
+        def clash(o: tuple[int, float]) -> float:
+            box = box_of(o)
+            out = max(0.0, frame[1] - box[1]) + max(0.0, box[3] - frame[3])
+            out += max(0.0, box[2] - frame[2]) + max(0.0, frame[0] - box[0])
+            area = sum(
+                max(0.0, min(box[2], b[2]) - max(box[0], b[0]))
+                * max(0.0, min(box[3], b[3]) - max(box[1], b[1]))
+                for b in placed
+            )
+            return area + 100.0 * out
+
+        best = min(offsets, key=lambda o: (clash(o), offsets.index(o)))
+        placed.append(box_of(best))
+        side, dy = best
+        on_front = any(k in front for k in ks)
+        label = ax.annotate(text, (x, y), xytext=(4 * side, dy), textcoords="offset points",
+                            fontsize=7, color="C3" if on_front else "0.3",
+                            ha="left" if side > 0 else "right",
+                            arrowprops=None if dy == 3 else {"arrowstyle": "-", "color": "0.7", "lw": 0.5})  # fmt: skip
+        label.set_in_layout(False)  # labels must not move the axes they were placed in
 
 
 def _format_table(costs: Mapping[str, Cost], columns: Sequence[str] = CATEGORIES) -> str:
