@@ -193,91 +193,100 @@ def _add_gen(sub) -> None:
     p = sub.add_parser(
         "gen",
         help="render a ground-truth dataset independently with Mitsuba 3",
-        description="Render irradiance at a builder's receivers with Mitsuba 3 (Monte Carlo, "
-        "standard error per receiver) and write it as an attenfit dataset (.npz).",
+        description="Render irradiance with Mitsuba 3 (Monte Carlo, a standard error per "
+        "receiver) at the receivers `attenfit truth` would use for the same options, and write "
+        "it as an attenfit dataset (.npz).",
     )
-    p.add_argument("--emitter", choices=("sphere", "disk", "capsule"), required=True)
-    p.add_argument("--radius", type=float, required=True, help="emitter radius R (m)")
-    p.add_argument("--intensity", type=float, default=1.0, help="point-equivalent intensity I")
-    p.add_argument("--two-sided", action="store_true", help="a disk emitting from both faces")
-    p.add_argument("--length", type=float, default=None, help="capsule segment length (default 4R)")
+    p.add_argument("--emitter", required=True, choices=["sphere", "disk", "capsule"])
+    p.add_argument("--radius", required=True, type=float, help="emitter radius (m)")
     p.add_argument(
-        "--receivers",
-        choices=("facing", "plane", "random"),
-        default="facing",
-        help="facing sweep (default), a plane under the light, or random positions and normals",
+        "--intensity", type=float, default=1.0, help="point-equivalent intensity I (default 1)"
     )
     p.add_argument(
-        "--n",
-        type=int,
-        default=None,
-        help="receivers (facing/random, default 64) or grid side (plane, default 32)",
+        "--length", type=float, default=None, help="capsule segment length (default 4 radius)"
     )
+    p.add_argument("--two-sided", action="store_true", help="two-sided disk")
+    p.add_argument("--receivers", choices=["facing", "plane", "random"], default="facing")
     p.add_argument(
         "--range",
         default=None,
         metavar="A:B",
-        help="distances from the centre for facing/random (default 1.05R:20R; disk 0.05R:20R)",
+        help="distance range (m) for facing/random receivers (default 1.001 r:1000 r; disk 0.001 r:1000 r)",
     )
     p.add_argument(
-        "--height", type=float, default=None, help="plane distance below the centre (default R)"
+        "--height", type=float, default=None, help="plane: depth below the centre (default r)"
     )
-    p.add_argument("--extent", type=float, default=None, help="plane half-width (default 4R)")
-    p.add_argument("--spp", type=int, default=4096, help="samples per receiver (default 4096)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (receivers and samples)")
+    p.add_argument(
+        "--extent", type=float, default=None, help="plane: half-width of the grid (default 10 r)"
+    )
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=None,
+        help="receivers (facing/random, default 256) or grid points per side (plane, default 64)",
+    )
+    p.add_argument("--spp", type=int, default=4096, help="Monte Carlo samples per receiver")
+    p.add_argument("--seed", type=int, default=0, help="seed of the samples and random receivers")
     p.add_argument(
         "--variant",
-        choices=("auto", "scalar_rgb", "llvm_ad_rgb"),
+        choices=["auto", "scalar_rgb", "llvm_ad_rgb"],
         default="auto",
-        help="Mitsuba variant; auto uses llvm_ad_rgb when a working libLLVM is found",
+        help="Mitsuba variant (auto: llvm_ad_rgb when a working libLLVM is found)",
     )
-    p.add_argument("--out", required=True, metavar="FILE.npz", help="the dataset to write")
-    p.add_argument("--force", action="store_true", help="overwrite --out")
+    p.add_argument("--out", required=True, help="output file, FILE.npz")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output")
     p.add_argument(
         "--chunk",
         type=int,
         default=None,
         metavar="N",
-        help="batch mode: render N receivers per chunk into FILE.npz.parts/, resumable",
+        help="batch mode: N receivers per chunk in FILE.npz.parts/; re-run to resume",
     )
     p.set_defaults(run=_run_gen)
 
 
 def _gen_template(args: argparse.Namespace):
-    """The exact dataset whose receivers `attenfit gen` renders (emitter at the origin)."""
+    """The exact dataset whose receivers `attenfit gen` renders: `attenfit truth`'s, float64."""
     import math
 
-    from . import facing_sweep, plane_receivers, random_receivers
+    import jax
+
+    from ._dataset import facing_sweep, plane_receivers, random_receivers
     from ._errors import BadValueError
     from .emitters import CapsuleEmitter, DiskEmitter, SphereEmitter
 
+    for name in ("radius", "intensity", "length", "height", "extent"):
+        v = getattr(args, name)
+        if v is not None and not math.isfinite(v):
+            raise BadValueError(f"--{name} must be finite, got {v}")
     r = args.radius
-    if not (math.isfinite(r) and r > 0):
-        raise BadValueError(f"--radius must be a positive number, got {r}")
+    if not r > 0:
+        raise BadValueError(f"--radius must be > 0, got {r}")
+    if args.samples is not None and args.samples < 1:
+        raise BadValueError(f"--samples must be >= 1, got {args.samples}")
+    jax.config.update("jax_enable_x64", True)
     if args.emitter == "sphere":
         emitter = SphereEmitter([0.0, 0.0, 0.0], r, args.intensity)
     elif args.emitter == "disk":
         emitter = DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], r, args.intensity, args.two_sided)
     else:
-        half = 0.5 * (4.0 * r if args.length is None else args.length)
+        half = (4 * r if args.length is None else args.length) / 2
+        if half < 0:
+            raise BadValueError(f"--length must be >= 0, got {args.length}")
         emitter = CapsuleEmitter([-half, 0.0, 0.0], [half, 0.0, 0.0], r, args.intensity)
-    if args.receivers == "plane":
-        n = 32 if args.n is None else args.n
-        height = r if args.height is None else args.height
-        extent = 4.0 * r if args.extent is None else args.extent
-        return plane_receivers(emitter, height, extent, n=n)
-    n = 64 if args.n is None else args.n
-    lo, hi = (0.05 * r if args.emitter == "disk" else 1.05 * r), 20.0 * r
-    if args.range is not None:
-        try:
-            lo, hi = (float(x) for x in args.range.split(":"))
-        except ValueError:
-            raise BadValueError(
-                f"--range must be A:B with numbers A < B, got {args.range!r}"
-            ) from None
+    if args.range is None:
+        lo, hi = (1e-3 * r if args.emitter == "disk" else 1.001 * r), 1000 * r
+    else:
+        lo, hi = _parse_range(args.range)
     if args.receivers == "facing":
-        return facing_sweep(emitter, lo, hi, n=n)
-    return random_receivers(emitter, n, lo, hi, seed=args.seed)
+        return facing_sweep(emitter, lo, hi, n=args.samples or 256, dtype="float64")
+    if args.receivers == "random":
+        return random_receivers(
+            emitter, args.samples or 256, lo, hi, seed=args.seed, dtype="float64"
+        )
+    height = r if args.height is None else args.height
+    extent = 10 * r if args.extent is None else args.extent
+    return plane_receivers(emitter, height, extent, n=args.samples or 64, dtype="float64")
 
 
 def _gen_progress(label: str):
@@ -323,6 +332,8 @@ def _run_gen(args: argparse.Namespace) -> int:
             f"attenfit gen needs the data_gen package (from attenfit's source tree) and "
             f"Mitsuba 3 (pip install mitsuba): {exc}"
         ) from None
+    if not args.out.endswith(".npz"):
+        raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
     require_mitsuba()
     check_output_path(args.out, force=args.force)
     if args.spp < 2:

@@ -350,34 +350,38 @@ def test_plane_map_orientation_and_png(tmp_path):
 
 
 # ----------------------------------------------------------------------------- CLI
-def test_cli_gen_writes_a_dataset(tmp_path, capsys):
-    out = tmp_path / "g.npz"
-    argv = ["gen", "--emitter", "disk", "--radius", "0.5", "--receivers", "random", "--n", "16"]
-    argv += ["--spp", "64", "--seed", "3", "--variant", SCALAR, "--out", str(out)]
+def test_cli_gen_writes_a_dataset_matching_truth(tmp_path, capsys):
+    out, exact_out = tmp_path / "g.npz", tmp_path / "t.npz"
+    common = ["--emitter", "disk", "--radius", "0.5", "--receivers", "random", "--samples", "16"]
+    common += ["--range", "0.05:3", "--seed", "3"]
+    argv = ["gen", *common, "--spp", "256", "--variant", SCALAR, "--out", str(out)]
     assert main(argv) == 0
     line = capsys.readouterr().out.strip()
     assert line.startswith(
-        f"wrote {out}: 16 receivers, scalar_rgb, spp 64, median relative stderr "
+        f"wrote {out}: 16 receivers, scalar_rgb, spp 256, median relative stderr "
     )
     data = Dataset.load(out)
     prov = data.provenance
     assert prov["generator"] == "mitsuba" and prov["variant"] == SCALAR
-    assert (prov["spp"], prov["seed"], prov["mitsuba_version"]) == (64, 3, mi.__version__)
+    assert (prov["spp"], prov["seed"], prov["mitsuba_version"]) == (256, 3, mi.__version__)
     assert prov["builder"] == "random_receivers"
+    # the same options give `attenfit truth` the same receivers: compare receiver by receiver
+    assert main(["truth", *common, "--out", str(exact_out)]) == 0
+    exact = Dataset.load(exact_out)
+    assert np.array_equal(exact.points, data.points)
+    _check_agreement(data, exact, 256, family_bound=0.01)
+    capsys.readouterr()
     assert main(argv) == 2
     assert capsys.readouterr().err.strip() == (
         f"attenfit: error: output file {str(out)!r} exists; use force=True (--force) to overwrite it"
     )
-    assert main([*argv, "--force", "--chunk", "4"]) == 0
+    assert main([*argv, "--force", "--chunk", "5"]) == 0
     assert np.array_equal(Dataset.load(out).E, data.E)
 
 
 def test_cli_gen_bad_radius(capsys):
     assert main(["gen", "--emitter", "sphere", "--radius", "0", "--out", "x.npz"]) == 2
-    assert (
-        capsys.readouterr().err.strip()
-        == "attenfit: error: --radius must be a positive number, got 0.0"
-    )
+    assert capsys.readouterr().err.strip() == "attenfit: error: --radius must be > 0, got 0.0"
 
 
 # ----------------------------------------------------------------------------- slow sweep
