@@ -53,12 +53,10 @@ Real = Float[Array, "*shape"]
 
 # ----------------------------------------------------------------------------- dtypes
 def _is_weak(x: Any) -> bool:
+    """Python scalars and weakly typed JAX values (e.g. `jnp.asarray(0.1)`) follow the others."""
     if isinstance(x, (bool, int, float)):
         return True
-    try:
-        return bool(jax.dtypes.is_weakly_typed(x))
-    except Exception:  # numpy arrays and other plain objects are never weak
-        return False
+    return bool(getattr(x, "weak_type", False))
 
 
 def promote(d: ArrayLike, *params: ArrayLike) -> tuple[Array, ...]:

@@ -17,11 +17,13 @@ Common behaviour (tested for every registered family):
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
 from typing import ClassVar
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
@@ -53,6 +55,26 @@ __all__ = [
 ]
 
 Param = Float[ArrayLike, "*batch"]
+
+
+def _jit_call(call):
+    """Compile a family's `__call__` once per shape and dtype (not per parameter value).
+
+    Parameters and `d` are turned into arrays first (Python numbers stay weakly typed), so
+    `eqx.filter_jit` traces them instead of baking their values in; inside a caller's own
+    `jit`/`vmap`/`grad` this is simply inlined. Eager calls then cost one dispatch instead of
+    one per primitive.
+    """
+    jitted = eqx.filter_jit(call)
+
+    @functools.wraps(call)
+    def wrapper(self, d):
+        self = jax.tree_util.tree_map(jnp.asarray, self)
+        return jitted(self, jnp.asarray(d))
+
+    return wrapper
+
+
 Out = Float[Array, "*shape"]
 
 
@@ -73,6 +95,7 @@ class InverseSquare(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         (d,) = parts.promote(d)
         return parts.keep_nan(d, parts.inverse_square(parts.distance(d)))
@@ -97,6 +120,7 @@ class UnrealEpsilon(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, eps = parts.promote(d, self.eps)
         return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), jnp.sqrt(eps)))
@@ -121,6 +145,7 @@ class Clamped(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r_min = parts.promote(d, self.r_min)
         return parts.keep_nan(d, parts.clamped_inverse_square(parts.distance(d), r_min))
@@ -149,6 +174,7 @@ class Yuksel(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
         return parts.keep_nan(d, parts.yuksel(parts.distance(d), r))
@@ -173,6 +199,7 @@ class YukselAdhoc(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
         return parts.keep_nan(
@@ -200,6 +227,7 @@ class DiskFacing(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
         return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), r))
@@ -230,6 +258,7 @@ class Polynomial(Family):
     units: ClassVar = {"kc": 2}
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, kc, kl, kq = parts.promote(d, self.kc, self.kl, self.kq)
         return parts.keep_nan(d, parts.polynomial(parts.distance(d), kc, kl, kq))
@@ -256,6 +285,7 @@ class MadamsSphere(Family):
     tends_to_inverse_square = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
         return parts.keep_nan(
@@ -291,6 +321,7 @@ class MadamsCutoff(Family):
         r, c = parts.promote(self.r, self.cutoff)
         return r / jnp.sqrt(c)
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r, c = parts.promote(d, self.r, self.cutoff)
         return parts.keep_nan(d, parts.cutoff_bias(parts.distance(d), r, c) / (r * r))
@@ -325,6 +356,7 @@ class MadamsTan(Family):
         r, d_max = parts.promote(self.r, self.d_max)
         return r + d_max
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r, d_max = parts.promote(d, self.r, self.d_max)
         d = parts.distance(d)
@@ -361,6 +393,7 @@ class MadamsRational(Family):
         r, d_max = parts.promote(self.r, self.d_max)
         return r + d_max
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r, d_max = parts.promote(d, self.r, self.d_max)
         d = parts.distance(d)
@@ -393,6 +426,7 @@ class UnrealWindow(Family):
     window = "smooth"
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, eps, r_max = parts.promote(d, self.eps, self.r_max)
         d = parts.distance(d)
@@ -425,6 +459,7 @@ class FrostbiteWindow(Family):
     window = "smooth"
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r_min, r_max = parts.promote(d, self.r_min, self.r_max)
         d = parts.distance(d)
@@ -456,6 +491,7 @@ class Godot(Family):
     range_param = "r_max"
     window = "smooth"
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, a, r_max = parts.promote(d, self.a, self.r_max)
         d = parts.distance(d)
@@ -491,6 +527,7 @@ class CryEngineLinear(Family):
     window = "hard"
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r_min, r_max = parts.promote(d, self.r_min, self.r_max)
         d = parts.distance(d)
@@ -520,6 +557,7 @@ class JustCause2(Family):
     window = "smooth"
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, scale, r_max = parts.promote(d, self.scale, self.r_max)
         return parts.keep_nan(d, scale * parts.smooth_window(parts.distance(d), r_max, 2, 2))
@@ -549,6 +587,7 @@ class UnrealExponent(Family):
     window = "smooth"
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, scale, r_max, p = parts.promote(d, self.scale, self.r_max, self.p)
         return parts.keep_nan(d, scale * parts.smooth_window(parts.distance(d), r_max, 2, p))
@@ -577,6 +616,7 @@ class ThreeJS(Family):
     range_param = "cutoff"
     window = "smooth"
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, decay, cutoff = parts.promote(d, self.decay, self.cutoff)
         d = parts.distance(d)
@@ -607,6 +647,7 @@ class GltfRange(Family):
     singular = True
     scale_covariant = True
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, rng = parts.promote(d, self.range)
         d = parts.distance(d)
@@ -664,6 +705,7 @@ class Spline(Family):
                 f"family 'spline': knots must be >= 2 positive, strictly increasing distances, got {knots}"
             )
 
+    @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, values = parts.promote(d, self.knot_values)
         d = parts.distance(d)
