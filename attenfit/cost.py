@@ -238,8 +238,8 @@ def measure_throughput(
 
     Each family is cast to float32, jitted with its parameters as compile-time constants
     (as a shader with baked parameters), and evaluated on `n` log-spaced distances in
-    `d_range` on JAX's default device. Every repeat times each family in turn (interleaved,
-    so drifts of the machine's load hit all alike); a repeat is the fastest of as many
+    `d_range` on JAX's default device. Every repeat times each family in turn, in a new
+    random order (interleaved, so drifts of the machine's load hit all alike); a repeat is the fastest of as many
     calls as last `min_time` seconds (so that another process's burst does not count), and
     the median over `repeats` is reported. Names must be distinct.
     """
@@ -265,8 +265,10 @@ def measure_throughput(
         once = max(time.perf_counter() - start, 1e-7)
         fns.append((fn, max(1, int(np.ceil(min_time / once)))))
     samples: list[list[float]] = [[] for _ in fams]
+    rng = np.random.default_rng(0)
     for _ in range(repeats):
-        for k, (fn, inner) in enumerate(fns):
+        for k in rng.permutation(len(fns)):  # no family is always first after a slow one
+            fn, inner = fns[k]
             best = np.inf
             for _ in range(inner):
                 start = time.perf_counter()
