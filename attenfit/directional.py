@@ -45,9 +45,9 @@ def _check_angles(umbra: ArrayLike, penumbra: ArrayLike) -> None:
 
 
 def spot_t(
-    cos_s: Float[ArrayLike, "*shape"],
-    umbra: Float[ArrayLike, "*shape"],
-    penumbra: Float[ArrayLike, "*shape"],
+    cos_s: Float[ArrayLike, "*#shape"],
+    umbra: Float[ArrayLike, "*#shape"],
+    penumbra: Float[ArrayLike, "*#shape"],
     *,
     min_width: float = MIN_COS_WIDTH,
 ) -> Float[Array, "*shape"]:
@@ -60,7 +60,7 @@ def spot_t(
     umbra <= pi.
     """
     _check_angles(umbra, penumbra)
-    cos_s, umbra, penumbra = parts.promote(cos_s, umbra, penumbra)
+    cos_s, umbra, penumbra = jnp.broadcast_arrays(*parts.promote(cos_s, umbra, penumbra))
     cu = jnp.cos(umbra)
     width = jnp.cos(penumbra) - cu
     width = jnp.where(width > min_width, width, jnp.full_like(width, min_width))
@@ -69,9 +69,9 @@ def spot_t(
 
 
 def spot_frostbite(
-    cos_s: Float[ArrayLike, "*shape"],
-    umbra: Float[ArrayLike, "*shape"],
-    penumbra: Float[ArrayLike, "*shape"],
+    cos_s: Float[ArrayLike, "*#shape"],
+    umbra: Float[ArrayLike, "*#shape"],
+    penumbra: Float[ArrayLike, "*#shape"],
     *,
     min_width: float = MIN_COS_WIDTH,
 ) -> Float[Array, "*shape"]:
@@ -86,9 +86,9 @@ def spot_frostbite(
 
 
 def spot_threejs(
-    cos_s: Float[ArrayLike, "*shape"],
-    umbra: Float[ArrayLike, "*shape"],
-    penumbra: Float[ArrayLike, "*shape"],
+    cos_s: Float[ArrayLike, "*#shape"],
+    umbra: Float[ArrayLike, "*#shape"],
+    penumbra: Float[ArrayLike, "*#shape"],
     *,
     min_width: float = MIN_COS_WIDTH,
 ) -> Float[Array, "*shape"]:
