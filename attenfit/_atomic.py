@@ -21,6 +21,13 @@ __all__ = ["atomic_dir", "atomic_write", "check_output_path"]
 _TMP_MARK = ".attenfit-tmp"
 
 
+def _umask() -> int:
+    """The process's umask (read by setting and restoring it)."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
 def check_output_path(
     path: str | os.PathLike, *, force: bool = False, folder: bool = False
 ) -> Path:
@@ -79,6 +86,7 @@ def atomic_write(
     )
     os.close(fd)
     tmp_path = Path(tmp)
+    os.chmod(tmp_path, 0o666 & ~_umask())  # mkstemp makes 0600; outputs get the usual mode
     try:
         if callable(data):
             data(tmp_path)
@@ -109,6 +117,7 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
     path = check_output_path(path, force=force, folder=True)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
+    os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
     try:
         yield tmp
         old = None

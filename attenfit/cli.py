@@ -607,8 +607,34 @@ def get_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class _Terminated(KeyboardInterrupt):
+    """Raised by the SIGTERM handler, so that SIGTERM unwinds like Ctrl-C (outputs stay atomic)."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run the CLI with `argv` (default: `sys.argv[1:]`); return the exit code."""
+    """Run the CLI with `argv` (default: `sys.argv[1:]`); return the exit code.
+
+    SIGINT (Ctrl-C) and SIGTERM unwind through the verb's `finally` blocks, so temporary
+    outputs are removed and previous outputs stay as they were; exit 130 and 143.
+    """
+    import signal
+    import threading
+
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+    try:
+        return _main(argv)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     parser = get_parser()
     try:
         args = parser.parse_args(argv)
@@ -617,14 +643,15 @@ def main(argv: Sequence[str] | None = None) -> int:
             return EXIT_BAD_INPUT
         return int(args.run(args))
     except _UsageError as exc:
-        print(exc, file=sys.stderr)
+        print(str(exc).replace("\n", " "), file=sys.stderr)
         return EXIT_BAD_INPUT
     except AttenfitError as exc:
-        print(f"attenfit: error: {exc}", file=sys.stderr)
+        print(f"attenfit: error: {exc}".replace("\n", " "), file=sys.stderr)
         return EXIT_BAD_INPUT
-    except KeyboardInterrupt:
-        print("attenfit: interrupted; no output was written", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
+        print(f"attenfit: {what}; any previous output is unchanged", file=sys.stderr)
+        return 143 if isinstance(exc, _Terminated) else 130
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:  # a bug: say what, in one line, without a traceback
