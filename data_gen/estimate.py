@@ -81,7 +81,7 @@ _FLOOR_REL = 2.0**-20
 _CONE_COS_ERR = 2.0**-23
 # Mitsuba offsets ray origins by about (1 + max|p|) * 89 * 2^-24 (`Interaction::offset_p`):
 # a receiver closer than this to a disk's surface starts its rays on the other side.
-_RAY_EPS = 1024 * 2.0**-24
+_RAY_EPS = 128 * 2.0**-24  # 1.4x the offset
 
 Progress = Callable[[int, int], None]
 
