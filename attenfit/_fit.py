@@ -428,6 +428,49 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
     return problem
 
 
+def _layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
+    return [
+        ("pvec", (k,)),
+        ("jtj", (k, k)),
+        ("at_bound", (k,)),
+        ("result", ()),
+        ("steps", ()),
+        ("start_finite", ()),
+        ("start_loss", ()),
+        ("loss", ()),
+        ("max_rel", ()),
+        ("rms_rel", ()),
+        ("grad_ok", ()),
+    ]
+
+
+def _pack(out: dict[str, Array], k: int) -> Array:
+    """All outputs of one problem as one float vector: one device-to-host transfer."""
+    dtype = out["loss"].dtype
+    return jnp.concatenate([jnp.ravel(out[name]).astype(dtype) for name, _ in _layout(k)])
+
+
+class _Unpacking:
+    """A jitted packed solve, returning numpy outputs by name (with any batch axes)."""
+
+    def __init__(self, fn: Callable, k: int):
+        self.fn, self.k = fn, k
+
+    def __call__(self, *args) -> dict[str, np.ndarray]:
+        flat = np.asarray(self.fn(*args))
+        out, i = {}, 0
+        for name, shape in _layout(self.k):
+            size = math.prod(shape)
+            piece = flat[..., i : i + size].reshape((*flat.shape[:-1], *shape))
+            if name in ("result", "steps"):
+                piece = piece.astype(np.int64)
+            elif name in ("start_finite", "at_bound", "grad_ok"):
+                piece = piece.astype(bool)
+            out[name] = piece
+            i += size
+        return out
+
+
 _COMPILED: dict[Any, Callable] = {}
 
 
@@ -455,7 +498,13 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, d
             else solver
         )
         problem = _build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol)
-        fn = jax.jit(jax.vmap(problem) if batched else problem)
+        k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
+
+        def packed(*args):
+            return _pack(problem(*args), k)
+
+        fn = jax.jit(jax.vmap(packed) if batched else packed)
+        fn = _Unpacking(fn, k)
         _COMPILED[key] = fn
     return fn
 
@@ -782,7 +831,6 @@ def fit(
     # numpy in: jit's C++ fast path transfers them (jnp.asarray per array costs ~0.1 ms each)
     nvalues = {k: np.asarray(v, dtype) for k, v in values.items()}
     out = fn(nvalues, np.asarray(d, dtype), np.asarray(target, dtype), np.asarray(w, dtype))
-    out = jax.device_get(out)
     return _make_result(
         spec, model, values, free, out, None, target.shape[-1], loss, _solver_name(solver), dtype
     )
@@ -877,7 +925,6 @@ def fit_many(
         np.ascontiguousarray(target, dtype),
         np.ascontiguousarray(w, dtype),
     )
-    out = jax.device_get(out)
     return FitResults(spec, model, bvalues, free, out, n, loss, _solver_name(solver), dtype)
 
 
