@@ -17,6 +17,7 @@ The normal suite renders with `scalar_rgb` (pure pip, every platform) in a few s
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import subprocess
@@ -211,6 +212,46 @@ def test_failed_probes_fall_back_to_scalar_with_one_notice(monkeypatch, capsys):
     assert err[0].endswith("); using scalar_rgb")
     assert variants.select_variant("auto").name == SCALAR  # cached: no second notice
     assert capsys.readouterr().err == ""
+
+
+_AUTO_SCRIPT = r"""
+import json, sys
+import numpy as np
+from data_gen.variants import select_variant
+choice = select_variant("auto")  # before Dr.Jit is imported, as attenfit gen does
+from data_gen.estimate import estimate_detail
+from data_gen.scenes import DiskLight, SphereLight
+lights = [SphereLight((0, 0, 0), 0.5, 1.0), DiskLight((0, 2, 0), (0, 0, -1), 0.5, 1.0)]
+p = np.array([[0.0, 0.0, -1.5], [0.3, 0.4, -0.8], [0.0, 2.1, -0.05], [1.0, 1.0, 0.0]])
+n = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [0.0, 0.0, 1.0], [-0.6, 0.0, 0.8]])
+out = {"variant": choice.name}
+for v in dict.fromkeys([choice.name, "scalar_rgb"]):
+    e = estimate_detail(lights, p, n, spp=2048, seed=5, variant=v)
+    out[v] = [e.E.tolist(), e.stderr.tolist(), e.variant]
+print(json.dumps(out))
+"""
+
+
+def test_auto_variant_in_a_fresh_process():
+    """`auto` picks llvm_ad_rgb where a libLLVM passes the probe (CI installs libllvm19).
+
+    Then the LLVM and scalar variants, fed the same uniforms, must agree far inside the
+    standard error; otherwise the fallback must have said so in one line.
+    """
+    proc = subprocess.run(
+        [sys.executable, "-c", _AUTO_SCRIPT], capture_output=True, text=True, check=False
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    if out["variant"] == "llvm_ad_rgb":
+        E_llvm, se, name = out["llvm_ad_rgb"]
+        E_scalar, _, _ = out["scalar_rgb"]
+        assert name == "llvm_ad_rgb"
+        diff = np.abs(np.subtract(E_llvm, E_scalar))
+        assert np.all(diff <= 0.1 * np.asarray(se) + 1e-12), (diff, se)
+    else:
+        assert out["variant"] == SCALAR
+        assert "data_gen: llvm_ad_rgb unavailable (" in proc.stderr
 
 
 def test_unknown_variant_is_refused():
