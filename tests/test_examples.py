@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
@@ -104,3 +105,74 @@ def test_example_refuses_to_overwrite(tmp_path):
     assert proc.stderr.startswith("error: output folder") and "--force" in proc.stderr
     assert "Traceback" not in proc.stderr
     assert (out / "keep.txt").read_text() == "mine"
+
+
+# ----------------------------------------------------------------------------- Madams 2011
+@pytest.fixture(scope="module")
+def madams(tmp_path_factory):
+    out = tmp_path_factory.mktemp("madams") / "out"
+    module = _load("reproduce_madams")
+    numbers = module.main(["--out", str(out), "--quick", "--variant", "scalar_rgb"])
+    return out, numbers
+
+
+def test_madams_figures(madams):
+    out, numbers = madams
+    for name in ("madams_curve", "madams_four_lights", "madams_windows"):
+        _assert_png(out / f"{name}.png", 20_000)
+    assert _numbers(out)["windows"]["d_max"] == pytest.approx(numbers["windows"]["d_max"])
+
+
+def test_madams_first_post_curve(madams):
+    """1/(d/r+1)^2, the cutoff's d_max, and the curve being the exact sphere's."""
+    _, n = madams
+    r = n["r"]
+    d = np.array(n["curve"]["d_s"])
+    np.testing.assert_allclose(n["curve"]["f_att"], 1 / (d / r + 1) ** 2, rtol=1e-12)
+    # scale and bias, written out from the post's GLSL
+    c = 0.001
+    expect = np.maximum((1 / (d / r + 1) ** 2 - c) / (1 - c), 0)
+    np.testing.assert_allclose(n["curve"]["cutoff_0.001"], expect, rtol=1e-12)
+    # d_max = r (sqrt(Li/Ic) - 1): the thread's own number, r = 1, Li/Ic = 1000 -> ~30.6
+    assert n["cutoffs"]["0.001"]["d_max"] == pytest.approx(30.6, abs=0.05)
+    assert n["cutoffs"]["0.005"]["d_max"] == pytest.approx(math.sqrt(200) - 1, rel=1e-12)
+    # a sphere's facing irradiance is exactly r^2/D^2 (the curve); a disc's is not
+    assert n["curve"]["exact_sphere_max_rel_diff"] < 1e-9
+    assert n["curve"]["disk_facing_max_rel_diff"] > 0.4
+    # Mitsuba agrees with the curve within its standard errors (10 receivers)
+    z = np.array(n["curve"]["mc_z"])
+    assert np.all(np.abs(z) < 4.5)
+
+
+def test_madams_four_lights_shadow_region(madams):
+    """The analytic render is exact except where a light is shadowed, and too bright there."""
+    _, n = madams
+    f = n["four_lights"]
+    assert f["analytic_vs_exact_unshadowed_max_rel"] < 1e-9
+    assert abs(f["pooled_z_unshadowed"]) < 4.5  # unshadowed: Mitsuba = analytic
+    assert 0.5 < f["z_std_unshadowed"] < 1.5
+    assert f["main_shadow_pixels"] > 10
+    assert f["main_shadow_pooled_z"] > 4.0  # significantly too bright in the shadow
+    assert 0.05 < f["main_shadow_excess"] < 0.6  # "slightly too bright"
+    assert f["main_shadow_centroid_x"] < -1.5  # on the far left of the plane
+    # cutoffs: 0.005 leaves more of the plane unlit than 0.001, which leaves some
+    lit = f["lit_fraction"]
+    assert lit["0.005"] < lit["0.001"] < 1.0
+
+
+def test_madams_second_post_gradients(madams):
+    """Bias ends with a non-zero slope at d_max; the tan and rational warps with zero."""
+    _, n = madams
+    w = n["windows"]
+    r, d_max = n["r"], w["d_max"]
+    assert 2 * d_max / math.pi == pytest.approx(2.1, rel=1e-12)  # the post's constant
+    c = w["cutoff_for_bias"]
+    assert c == pytest.approx((r / (r + d_max)) ** 2, rel=1e-12)
+    # d/dd (1/(d/r+1)^2 - c)/(1 - c) at d_max, by hand
+    slope = -2 / (r * (d_max / r + 1) ** 3) / (1 - c)
+    assert w["scale and bias"]["grad_left_of_d_max"] == pytest.approx(slope, rel=1e-6)
+    for name in ("scale and bias", "tan warp", "rational warp"):
+        assert w[name]["value_at_d_max"] == 0.0
+    for name in ("tan warp", "rational warp"):
+        assert abs(w[name]["grad_left_of_d_max"]) < 1e-6 * abs(w["unwindowed_slope_at_d_max"])
+        assert w[name]["grad_at_d_max"] == 0.0
