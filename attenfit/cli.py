@@ -290,30 +290,30 @@ def _gen_template(args: argparse.Namespace):
 
 
 def _gen_progress(label: str):
-    """A progress callback drawing a bar on stderr once a render has run for a second."""
+    """A progress callback for stderr: a live bar on a terminal (after the first second),
+    otherwise a line every 10 s (and a last one) once a render has run for 10 s."""
     import time
 
     start = time.perf_counter()
-    state = {"shown": False, "last": 0.0, "step": -1}
     tty = sys.stderr.isatty()
+    state = {"last": start, "shown": False}
 
     def progress(done: int, total: int) -> None:
         now = time.perf_counter()
         elapsed = now - start
-        if elapsed < 1.0 and done < total:
+        finished = done >= total
+        wait = 0.2 if tty else 10.0
+        if (elapsed < (1.0 if tty else 10.0) or now - state["last"] < wait) and not (
+            finished and state["shown"]
+        ):
             return
         frac = done / max(total, 1)
-        eta = elapsed * (1 - frac) / frac if frac > 0 else float("nan")
+        left = f", {elapsed * (1 - frac) / frac:.0f} s left" if 0 < frac < 1 else ""
         bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        line = f"{label} [{bar}] {done}/{total}  {elapsed:.0f} s, {eta:.0f} s left"
-        if tty:
-            if now - state["last"] >= 0.2 or done == total:
-                print("\r" + line, end="\n" if done == total else "", file=sys.stderr, flush=True)
-                state["last"] = now
-        elif int(10 * frac) > state["step"]:
-            state["step"] = int(10 * frac)
-            print(line, file=sys.stderr, flush=True)
-        state["shown"] = True
+        line = f"{label} [{bar}] {done}/{total}, {elapsed:.0f} s{left}"
+        end = "\n" if (finished or not tty) else ""
+        print(("\r" if tty else "") + line, end=end, file=sys.stderr, flush=True)
+        state["last"], state["shown"] = now, True
 
     return progress
 
@@ -501,15 +501,133 @@ def _run_fit(args: argparse.Namespace) -> int:
 
 
 def _add_report(sub) -> None:
-    p = sub.add_parser("report", help="write the comparison report (the main job)")
-    p.set_defaults(run=_not_yet("report"))
+    p = sub.add_parser(
+        "report",
+        help="write the comparison report (the main job)",
+        description="Compare every attenuation family with exact sphere and disk lights, as "
+        "published and fitted: report.md, report.json, results.csv and figures.",
+    )
+    p.add_argument(
+        "--out",
+        default="attenfit-report",
+        metavar="DIR",
+        help="output folder (default: %(default)s)",
+    )
+    p.add_argument(
+        "--emitters",
+        nargs="+",
+        metavar="NAME",
+        help="emitters to compare against: sphere, disk (default: both)",
+    )
+    p.add_argument(
+        "--families", nargs="+", metavar="NAME", help="families to compare (default: all)"
+    )
+    p.add_argument(
+        "--mitsuba",
+        nargs="+",
+        default=[],
+        metavar="FILE.npz",
+        help="Monte Carlo datasets (attenfit gen) to add as configurations",
+    )
+    p.add_argument("--no-fit", action="store_true", help="as published only, no fitted mode")
+    p.add_argument(
+        "--force", action="store_true", help="replace an existing non-empty output folder"
+    )
+    p.set_defaults(run=_run_report)
+
+
+def _run_report(args: argparse.Namespace) -> int:
+    import time
+
+    from ._atomic import check_output_path
+    from .report import build_report
+
+    t0 = time.perf_counter()
+
+    def say(msg: str) -> None:
+        print(
+            f"attenfit report: [{time.perf_counter() - t0:5.1f} s] {msg}",
+            file=sys.stderr,
+            flush=True,
+        )
+
+    check_output_path(args.out, force=args.force, folder=True)  # refuse before any work
+    datasets = {}
+    if args.mitsuba:
+        from ._dataset import Dataset
+
+        for path in args.mitsuba:
+            from pathlib import Path
+
+            name = Path(path).stem
+            datasets[name if name not in datasets else f"{name}-{len(datasets) + 1}"] = (
+                Dataset.load(path)
+            )
+    rep = build_report(
+        families=args.families,
+        emitters=args.emitters,
+        datasets=datasets,
+        fitted=not args.no_fit,
+        progress=say,
+    )
+    say("writing figures and tables")
+    out = rep.write(args.out, force=args.force, progress=say)
+    failed = sum(1 for r in rep.results if r["status"] != "ok")
+    say(
+        f"wrote {out}/report.md ({len(rep.results)} results, {failed} marked failed) "
+        f"in {time.perf_counter() - t0:.1f} s"
+    )
+    return EXIT_OK
 
 
 def _add_scene(sub) -> None:
     p = sub.add_parser(
-        "scene", help="fit what a scene file needs and recommend the cheapest family"
+        "scene",
+        help="fit what a scene file needs and recommend the cheapest family",
+        description="Generate ground truth only for the scene's lights and receivers, fit every "
+        "family its constraints allow, and recommend the cheapest within its tolerance. "
+        "Exit 0 even when no family meets the tolerance (the output says so); 2 for a bad "
+        "scene file.",
     )
-    p.set_defaults(run=_not_yet("scene"))
+    p.add_argument("file", metavar="FILE", help="a TOML scene file (see README, Scene files)")
+    p.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="write recommendation.md/.json, the winner's shaders and errors.png into DIR",
+    )
+    p.add_argument("--force", action="store_true", help="replace an existing non-empty DIR")
+    p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
+    p.add_argument(
+        "--no-measure",
+        action="store_true",
+        help="rank by operation count and error only (skip timing the families)",
+    )
+    p.set_defaults(run=_run_scene)
+
+
+def _run_scene(args: argparse.Namespace) -> int:
+    from ._atomic import check_output_path
+    from ._compile_cache import enable_persistent_cache
+    from ._recommend import recommend
+    from .scene import Scene
+
+    scene = Scene.load(args.file)
+    if args.out is not None:
+        check_output_path(args.out, force=args.force, folder=True)
+    import jax
+
+    jax.config.update("jax_enable_x64", True)  # truth and fits in float64 (float32: a constraint)
+    enable_persistent_cache()
+    rec = recommend(scene, measure=not args.no_measure)
+    if args.json:
+        print(json.dumps(rec.to_dict(), indent=2))
+    else:
+        print(rec.to_markdown(), end="")
+    if args.out is not None:
+        rec.save(args.out, force=args.force)
+        print(f"attenfit scene: wrote {args.out}", file=sys.stderr)
+    return EXIT_OK
 
 
 def _add_export(sub) -> None:
