@@ -15,9 +15,12 @@ from typing import Any
 import numpy as np
 from jaxtyping import ArrayLike
 
+from ._errors import BadValueError
+
 __all__ = [
     "STYLE",
     "curve_styles",
+    "new_figure",
     "plot_attenuation",
     "plot_error_map",
     "plot_plane_comparison",
@@ -61,11 +64,17 @@ def curve_styles(labels: Sequence[str]) -> dict[str, dict[str, Any]]:
     }
 
 
-def _new_ax(ax, figsize):
-    import matplotlib.pyplot as plt
+def new_figure(figsize: tuple[float, float]):
+    """A constrained-layout `Figure` outside pyplot (no global state, works on any backend)."""
+    from matplotlib.figure import Figure
 
+    return Figure(figsize=figsize, layout="constrained")
+
+
+def _new_ax(ax, figsize):
     if ax is None:
-        fig, ax = plt.subplots(figsize=figsize, layout="constrained")
+        fig = new_figure(figsize)
+        ax = fig.subplots()
     else:
         fig = ax.figure
     return fig, ax
@@ -76,11 +85,18 @@ def _finite_positive(y: np.ndarray) -> np.ndarray:
     return np.where(np.isfinite(y) & (y > 0), y, np.nan)
 
 
-def _legend(ax, outside: bool) -> None:
-    if outside:
+def _legend(ax, where: str) -> None:
+    """Place the legend "right" of or "below" the axes (never over the data), or "best" inside."""
+    if not ax.get_legend_handles_labels()[0]:
+        return
+    if where == "right":
         ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
-    else:
+    elif where == "below":
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False, ncol=2)
+    elif where == "best":
         ax.legend(loc="best", framealpha=0.85)
+    elif where != "none":
+        raise BadValueError(f"legend must be 'right', 'below', 'best' or 'none', got {where!r}")
 
 
 def plot_attenuation(
@@ -94,7 +110,7 @@ def plot_attenuation(
     truth_points_label: str = "truth (Monte Carlo)",
     styles: Mapping[str, Mapping[str, Any]] | None = None,
     title: str | None = None,
-    legend_outside: bool = True,
+    legend: str = "right",
     ax=None,
 ):
     """Attenuation `f(d)` against distance, log-log, each curve against the truth.
@@ -144,7 +160,7 @@ def plot_attenuation(
         ax.set_ylabel("attenuation f(d) (1/m²)")
         if title:
             ax.set_title(title)
-        _legend(ax, legend_outside)
+        _legend(ax, legend)
     return fig, ax
 
 
@@ -158,7 +174,7 @@ def plot_relative_error(
     title: str | None = None,
     linthresh: float = 1e-3,
     ylim: tuple[float, float] = (-1.05, 10.0),
-    legend_outside: bool = True,
+    legend: str = "right",
     ax=None,
 ):
     """Relative error `(f - truth) / truth` of each curve against `d / r`.
@@ -187,7 +203,7 @@ def plot_relative_error(
         ax.set_ylabel(_ERR_LABEL)
         if title:
             ax.set_title(title)
-        _legend(ax, legend_outside)
+        _legend(ax, legend)
     return fig, ax
 
 
@@ -296,11 +312,10 @@ def plot_side_by_side(
     Both images share one log colour scale. Returns `(fig, axes)` with three axes.
     """
     import matplotlib as mpl
-    import matplotlib.pyplot as plt
 
     with mpl.rc_context(STYLE):
         if fig is None:
-            fig = plt.figure(figsize=(11.5, 3.3), layout="constrained")
+            fig = new_figure((11.5, 3.3))
         axes = fig.subplots(1, 3)
         t = np.asarray(truth, dtype=np.float64)
         m = np.asarray(model, dtype=np.float64)
@@ -329,14 +344,13 @@ def plot_plane_comparison(
     Returns `(fig, axes)` (a 2-D array of axes; unused cells are hidden).
     """
     import matplotlib as mpl
-    import matplotlib.pyplot as plt
 
     with mpl.rc_context(STYLE):
         n = len(models) + 1
         ncols = max(1, min(ncols, n))
         nrows = -(-n // ncols)
         if fig is None:
-            fig = plt.figure(figsize=(2.3 * ncols + 1.4, 2.25 * nrows + 0.3), layout="constrained")
+            fig = new_figure((2.3 * ncols + 1.4, 2.25 * nrows + 0.3))
         axes = np.atleast_2d(fig.subplots(nrows, ncols, squeeze=False))
         flat = axes.ravel()
         t = np.asarray(truth, dtype=np.float64)

@@ -1,0 +1,199 @@
+"""Fit many different families in one compiled solve (the report's "fitted" mode).
+
+`attenfit.fit_many` batches problems of one family; the report fits every family on every
+configuration, and compiling one Levenberg-Marquardt solve per family costs ~3 s of CPU each
+(20 families: a minute on the reference 2-core machine). Here every (family, configuration)
+problem becomes one row of a single `fit_many` call on a `(fn, params)` model:
+
+* `params["u"]` holds the family's free parameters, flattened and mapped to unconstrained
+  coordinates with the family's own constraints (`attenfit._reparam`), zero-padded to the
+  longest; `params["c"]` the fixed ones; `params["fam"]` the family's index;
+* `fn` picks the family with `jax.lax.switch` (under `vmap`, a select over all branches, so
+  each row evaluates only its own family's value and derivative).
+
+Padding coordinates do not enter any residual, so they do not move and do not change the
+solution; the solution is the same least-squares problem `attenfit.fit` solves for that
+family (relative loss, its `default_free`, started at the published values), solved once.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+
+@dataclasses.dataclass(frozen=True)
+class _Layout:
+    names: tuple[str, ...]
+    shapes: tuple[tuple[int, ...], ...]
+    kinds: tuple[str, ...]
+    free: tuple[bool, ...]
+    offsets: tuple[int, ...]  # into u (free) or c (fixed)
+
+
+def _layout(cls: type, template: Any) -> _Layout:
+    names = cls.param_names()
+    free = set(cls.default_free)
+    shapes, kinds, isfree, offs = [], [], [], []
+    nu = nc = 0
+    for n in names:
+        shape = tuple(np.shape(getattr(template, n)))
+        size = int(np.prod(shape)) if shape else 1
+        shapes.append(shape)
+        kinds.append(cls.constraint(n))
+        isfree.append(n in free)
+        if n in free:
+            offs.append(nu)
+            nu += size
+        else:
+            offs.append(nc)
+            nc += size
+    return _Layout(tuple(names), tuple(shapes), tuple(kinds), tuple(isfree), tuple(offs))
+
+
+def _size(shape: tuple[int, ...]) -> int:
+    return int(np.prod(shape)) if shape else 1
+
+
+def _to_internal(kind: str, p: np.ndarray) -> np.ndarray:
+    from ._reparam import to_internal
+
+    return np.asarray(to_internal(kind, np.asarray(p, np.float64)), np.float64)
+
+
+def _to_param(kind: str, u: np.ndarray) -> np.ndarray:
+    from ._reparam import to_param
+
+    return np.asarray(to_param(kind, np.asarray(u, np.float64)), np.float64)
+
+
+def fit_all(
+    problems: Sequence[tuple[type, dict[str, Any], np.ndarray, np.ndarray, np.ndarray]],
+    *,
+    max_steps: int = 256,
+) -> list[tuple[dict[str, Any] | None, dict[str, Any]]]:
+    """Fit each problem `(cls, start_params, d, target, weights)` (all `d` of one length).
+
+    Returns, per problem, `(params or None, info)`: the fitted parameters (family values,
+    None when the fit did not converge) and `info` (converged, message, steps, loss, free).
+    Call inside `jax.enable_x64(True)` for a float64 fit.
+    """
+    import equinox as eqx
+    import jax
+    import jax.numpy as jnp
+
+    from ._fit import fit_many
+    from ._reparam import to_param
+
+    classes: list[type] = []
+    for cls, *_ in problems:
+        if cls not in classes:
+            classes.append(cls)
+    templates = {cls: cls(**problems[[p[0] for p in problems].index(cls)][1]) for cls in classes}
+    layouts = {cls: _layout(cls, templates[cls]) for cls in classes}
+    K = max(
+        [1]
+        + [
+            sum(_size(s) for s, f in zip(lay.shapes, lay.free, strict=True) if f)
+            for lay in layouts.values()
+        ]
+    )
+    C = max(
+        [1]
+        + [
+            sum(_size(s) for s, f in zip(lay.shapes, lay.free, strict=True) if not f)
+            for lay in layouts.values()
+        ]
+    )
+
+    def branch_for(cls):
+        lay, template = layouts[cls], templates[cls]
+
+        def branch(u, c, d):
+            vals = []
+            for shape, kind, isfree, off in zip(
+                lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
+            ):
+                src = u if isfree else c
+                v = src[off : off + _size(shape)].reshape(shape)
+                vals.append(to_param(kind, v) if isfree else v)
+            m = eqx.tree_at(
+                lambda m: [getattr(m, n) for n in lay.names],
+                template,
+                vals,
+                is_leaf=lambda x: x is None,
+            )
+            return jnp.asarray(m(d), d.dtype)
+
+        return branch
+
+    branches = [branch_for(cls) for cls in classes]
+
+    def fn(d, p):
+        idx = jnp.asarray(p["fam"]).astype(jnp.int32)
+        return jax.lax.switch(idx, branches, p["u"], p["c"], d)
+
+    us, cs, fams = [], [], []
+    for cls, start, *_ in problems:
+        lay = layouts[cls]
+        u = np.zeros(K)
+        c = np.zeros(C)
+        for n, shape, kind, isfree, off in zip(
+            lay.names, lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
+        ):
+            v = np.broadcast_to(np.asarray(start[n], np.float64), shape).ravel()
+            if isfree:
+                u[off : off + v.size] = _to_internal(kind, v)
+            else:
+                c[off : off + v.size] = v
+        us.append(u)
+        cs.append(c)
+        fams.append(float(classes.index(cls)))
+    d = np.stack([p[2] for p in problems])
+    target = np.stack([p[3] for p in problems])
+    weights = np.stack([p[4] for p in problems])
+    params = {"fam": np.asarray(fams), "u": np.stack(us), "c": np.stack(cs)}
+    res = fit_many(
+        (fn, params, {"fam": "real", "u": "real", "c": "real"}),
+        d,
+        target,
+        weights=weights,
+        free=("u",),
+        loss="relative",
+        max_steps=max_steps,
+        guess=False,
+    )
+    out: list[tuple[dict[str, Any] | None, dict[str, Any]]] = []
+    for i, (cls, *_rest) in enumerate(problems):
+        lay = layouts[cls]
+        fr = res[i]
+        u = np.asarray(res.params["u"][i], np.float64)
+        c = cs[i]
+        fitted: dict[str, Any] = {}
+        for n, shape, kind, isfree, off in zip(
+            lay.names, lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
+        ):
+            v = (
+                _to_param(kind, u[off : off + _size(shape)])
+                if isfree
+                else c[off : off + _size(shape)]
+            ).reshape(shape)
+            fitted[n] = float(v) if shape == () else v
+        ok = bool(fr.converged) and all(np.all(np.isfinite(np.asarray(v))) for v in fitted.values())
+        info = {
+            "converged": ok,
+            "message": fr.message.splitlines()[0] if fr.message else "",
+            "steps": int(fr.steps),
+            "loss": float(fr.loss),
+            "free": [n for n, f in zip(lay.names, lay.free, strict=True) if f],
+            "solver": "attenfit.fit_many, levenberg_marquardt, relative loss (all families in one solve)",
+            "last_params": {
+                k: (v if isinstance(v, float) else np.asarray(v).tolist())
+                for k, v in fitted.items()
+            },
+        }
+        out.append((fitted if ok else None, info))
+    return out
