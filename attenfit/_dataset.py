@@ -255,7 +255,10 @@ def _count(name: str, n: Any) -> int:
 
 
 def _dtype(dtype: Any) -> np.dtype:
-    dt = np.dtype(jax.dtypes.canonicalize_dtype(np.float64) if dtype is None else dtype)
+    try:
+        dt = np.dtype(jax.dtypes.canonicalize_dtype(np.float64) if dtype is None else dtype)
+    except TypeError:
+        raise BadTypeError(f"dtype must be float32 or float64, got {dtype!r}") from None
     if dt not in (np.dtype(np.float32), np.dtype(np.float64)):
         raise BadTypeError(f"dtype must be float32 or float64, got {dt}")
     if dt == np.float64 and not jax.config.jax_enable_x64:

@@ -162,6 +162,8 @@ def _check_param(family: str, name: str, value: Any, kind: str) -> None:
             f"family {family!r}: parameter {name!r} must be a real number or array, got {value!r}"
         )
     arr = arr.astype(np.float64)
+    if np.any(np.isnan(arr)):
+        raise BadValueError(f"family {family!r}: parameter {name!r} must be a number, got NaN")
     bad = None
     if kind == "positive" and np.any(arr <= 0):
         bad = "> 0"

@@ -69,13 +69,32 @@ def _check_real(name: str, x: Any, shape: tuple[int, ...]) -> Any:
         raise BadValueError(f"{name} must be {want}, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise BadValueError(f"{name} must be finite, got {arr.tolist()}")
-    return jnp.asarray(x, dtype=_float_dtype(x))
+    with np.errstate(over="ignore"):  # an overflow is reported just below
+        out = jnp.asarray(x, dtype=_float_dtype(x))
+    if not bool(jnp.all(jnp.isfinite(out))):
+        raise BadValueError(f"{name} = {arr.tolist()} overflows {out.dtype}")
+    return out
 
 
 def _check_positive(name: str, x: Any) -> Any:
     x = _check_real(name, x, ())
     if not _is_traced(x) and not float(x) > 0:
         raise BadValueError(f"{name} must be > 0, got {float(x)!r}")
+    return x
+
+
+def _check_radius(name: str, x: Any) -> Any:
+    """A positive radius whose square is a normal number of its dtype (else r^2, L overflow)."""
+    given = x
+    x = _check_positive(name, x)
+    if not _is_traced(x):
+        fi = jnp.finfo(x.dtype)
+        lo, hi = math.sqrt(float(fi.tiny)), math.sqrt(float(fi.max))
+        if not lo < float(x) < hi:
+            raise BadValueError(
+                f"{name} must lie within ({lo:.3g}, {hi:.3g}) in {x.dtype} (its square must be "
+                f"a normal number), got {float(np.asarray(given)):g}"
+            )
     return x
 
 
@@ -100,10 +119,28 @@ def _safe_norm(v: Array) -> Array:
     return jnp.where(pos, jnp.sqrt(jnp.where(pos, n2, 1)), 0)
 
 
+def _real_input(name: str, x: Any) -> Any:
+    """Refuse (eagerly) a concrete receiver array that is not real: complex, object, text, bool."""
+    if _is_traced(x):
+        return x
+    dt = getattr(x, "dtype", None)
+    if dt is None or np.dtype(dt).kind == "O":
+        try:
+            x = np.asarray(x)
+        except Exception as exc:  # ragged lists and the like
+            raise BadTypeError(f"{name} must be a real array [..., 3], got {x!r}") from exc
+        dt = x.dtype
+    if np.dtype(dt).kind == "b" or not (
+        jnp.issubdtype(dt, jnp.floating) or jnp.issubdtype(dt, jnp.integer)
+    ):
+        raise BadTypeError(f"{name} must be real (float or int), got dtype {dt}")
+    return x
+
+
 def _receivers(points: ArrayLike, normals: ArrayLike) -> tuple[Array, Array]:
     """Points and unit normals as float arrays of one dtype, broadcast to one shape [..., 3]."""
-    p = jnp.asarray(points)
-    n = jnp.asarray(normals)
+    p = jnp.asarray(_real_input("points", points))
+    n = jnp.asarray(_real_input("normals", normals))
     dt = _float_dtype(p) if jnp.issubdtype(p.dtype, jnp.floating) else _float_dtype(n)
     p = p.astype(dt)
     n = n.astype(dt)
@@ -111,7 +148,12 @@ def _receivers(points: ArrayLike, normals: ArrayLike) -> tuple[Array, Array]:
         raise BadValueError(
             f"points and normals must have a last axis of 3, got shapes {p.shape} and {n.shape}"
         )
-    shape = jnp.broadcast_shapes(p.shape, n.shape)
+    try:
+        shape = jnp.broadcast_shapes(p.shape, n.shape)
+    except ValueError:
+        raise BadValueError(
+            f"points {p.shape} and normals {n.shape} must have the same (or broadcastable) shapes"
+        ) from None
     p = jnp.broadcast_to(p, shape)
     n = jnp.broadcast_to(n, shape)
     n = n / jnp.linalg.norm(n, axis=-1, keepdims=True)
@@ -169,7 +211,7 @@ class SphereEmitter(AbstractEmitter):
 
     def __init__(self, center: ArrayLike, radius: ArrayLike, intensity: ArrayLike = 1.0):
         self.center = _check_real("center", center, (3,))
-        self.radius = _check_positive("radius", radius)
+        self.radius = _check_radius("radius", radius)
         self.intensity = _check_positive("intensity", intensity)
 
     def reference_point(self) -> Array:
@@ -217,7 +259,7 @@ class DiskEmitter(AbstractEmitter):
     ):
         self.center = _check_real("center", center, (3,))
         self.normal = _unit("normal", normal)
-        self.radius = _check_positive("radius", radius)
+        self.radius = _check_radius("radius", radius)
         self.intensity = _check_positive("intensity", intensity)
         if not isinstance(two_sided, bool | np.bool_):
             raise BadTypeError(f"two_sided must be True or False, got {two_sided!r}")
@@ -275,7 +317,7 @@ class CapsuleEmitter(AbstractEmitter):
     def __init__(self, a: ArrayLike, b: ArrayLike, radius: ArrayLike, intensity: ArrayLike = 1.0):
         self.a = _check_real("a", a, (3,))
         self.b = _check_real("b", b, (3,))
-        self.radius = _check_positive("radius", radius)
+        self.radius = _check_radius("radius", radius)
         self.intensity = _check_positive("intensity", intensity)
 
     @property
