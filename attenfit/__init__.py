@@ -67,6 +67,12 @@ from ._fit import fit_many as fit_many
 
 # --- metrics and report (issue 6) ---
 # --- cost, scene, export (issue 7) ---
+# scene files and recommendations (issue 7, part 2)
+from . import scene as scene
+from ._recommend import Candidate as Candidate
+from ._recommend import Recommendation as Recommendation
+from ._recommend import recommend as recommend
+from .scene import Scene as Scene
 # `attenfit.export` is the module; its function is `attenfit.export.export` (also
 # `attenfit.export_function`), so that the module stays importable under its name.
 from . import cost as cost
