@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import math
 
-import jax
 import jax.numpy as jnp
 import mpmath
 import numpy as np
@@ -441,48 +440,48 @@ def test_scale_law(name, static, log_s, e):
 
 
 # ----------------------------------------------------------------------------- shapes
-@pytest.mark.parametrize("name", NAMES)
-def test_batched_shapes_broadcast_like_scalars(name):
+AWKWARD = np.array([-1.0, -np.inf, np.inf, np.nan, 0.0, 1e-3])
+
+
+@pytest.mark.parametrize(("name", "static"), CASES, ids=CASE_IDS)
+def test_shapes_dtypes_and_awkward_inputs(name, static):
+    """Batched d and batched parameters broadcast like scalars; Python numbers and integer
+    arrays give the default float; negative d reads as 0, +inf gives 0, NaN gives NaN."""
     cls = attenfit.get_family(name)
-    fam = cls()
-    d = np.linspace(0.05, 12.0, 24).reshape(2, 3, 4)
+    fam = cls(**dict(static))
+    d = np.concatenate([AWKWARD, np.linspace(0.05, 12.0, 18)]).reshape(2, 3, 4)
     whole = f64(fam, d)
-    assert whole.shape == (2, 3, 4)
-    np.testing.assert_allclose(whole.ravel(), [float(f64(fam, x)) for x in d.ravel()], rtol=1e-13)
-    # Parameters with a leading batch axis, matched by d; and the same under vmap.
-    factors = np.array([0.5, 1.0, 2.0])
+    assert whole.shape == (2, 3, 4) and whole.dtype == np.float64
+    scalars = [np.asarray(fam(float(x))) for x in d.ravel()]  # Python floats: shape ()
+    assert all(v.dtype == np.float64 and v.shape == () for v in scalars)
+    np.testing.assert_allclose(whole.ravel(), scalars, rtol=1e-13)
+    got = whole.ravel()[: len(AWKWARD)]
+    at0 = got[4]
+    np.testing.assert_array_equal(got[:2], [at0, at0])
+    assert got[2] == 0 and np.isnan(got[3])
+    assert np.asarray(fam(np.arange(24).reshape(2, 3, 4))).dtype == np.float64
+    # Parameters with a leading batch axis, matched by d (the layout fit_many vmaps over).
+    factors = np.array([0.5, 1.0, 2.0, 1.5, 0.75, 1.25])
     batched = {
         k: np.stack([np.asarray(v) * f ** max(cls.length_power(k), 0) for f in factors])
         for k, v in cls.defaults().items()
     }
-    dd = np.array([0.07, 1.3, 9.0])
-    got = f64(cls(**batched), dd)
-    assert got.shape == (3,)
-    one_by_one = [float(f64(cls(**{k: v[i] for k, v in batched.items()}), dd[i])) for i in range(3)]
+    dd = np.array([0.07, 1.3, 9.0, 0.0, 4.0, 2.5])
+    got = f64(cls(**batched, **dict(static)), dd)
+    assert got.shape == (6,)
+    one_by_one = [
+        float(cls(**{k: v[i] for k, v in batched.items()}, **dict(static))(float(dd[i])))
+        for i in range(len(dd))
+    ]
     np.testing.assert_allclose(got, one_by_one, rtol=1e-13)
-    vm = jax.vmap(lambda p, x: cls(**p)(x))(
-        {k: jnp.asarray(v) for k, v in batched.items()}, jnp.asarray(dd)
-    )
-    np.testing.assert_allclose(np.asarray(vm), one_by_one, rtol=1e-13)
 
 
-@pytest.mark.parametrize("name", NAMES)
-def test_dtypes_and_python_inputs(name):
-    fam = attenfit.get_family(name)()
-    assert fam(jnp.asarray([1.0], dtype=jnp.float32)).dtype == jnp.float32
-    assert fam(jnp.asarray([1.0], dtype=jnp.float16)).dtype == jnp.float16
-    assert fam(1.0).dtype == jnp.float64  # x64 is on in the tests
-    assert fam(np.array([1, 2])).dtype == jnp.float64
-
-
-@pytest.mark.parametrize(("name", "static"), CASES, ids=CASE_IDS)
-def test_awkward_inputs(name, static):
-    """Negative d reads as 0, +inf gives 0, NaN gives NaN, no exception."""
-    fam = attenfit.get_family(name)(**dict(static))
-    got = f64(fam, [-1.0, -np.inf, np.inf, np.nan, 0.0])
-    at0 = got[4]
-    np.testing.assert_array_equal(got[:2], [at0, at0])
-    assert got[2] == 0 and np.isnan(got[3])
+def test_any_float_dtype_in_same_out():
+    for dtype in (jnp.float16, jnp.bfloat16, jnp.float32, jnp.float64):
+        for fam in (attenfit.Yuksel(), attenfit.FrostbiteWindow(), attenfit.Spline()):
+            assert fam(jnp.asarray([0.5, 2.0], dtype=dtype)).dtype == dtype
+    # float64 parameters do not widen a float32 d.
+    assert attenfit.Yuksel(r=np.float64(0.2))(jnp.float32(1.0)).dtype == jnp.float32
 
 
 # ----------------------------------------------------------------------------- registry

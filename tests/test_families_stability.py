@@ -28,11 +28,13 @@ DTYPES = [np.float32, np.float64]
 def case(request):
     (name, static), _ = request.param
     inst = {dt: instances(name, static, dt) for dt in DTYPES}
-    out = {dt: evaluate(name, static, *inst[dt], dt) for dt in DTYPES}
     # float64 evaluated on the float32 inputs: the reference for the float32 run.
     p32, g32 = inst[np.float32]
     g32 = g32.astype(np.float64)
-    ref32 = evaluate(name, static, p32, g32, np.float64)[0]
+    runs = [(*inst[dt], dt) for dt in DTYPES] + [(p32, g32, np.float64)]
+    *results, ref = evaluate(name, static, *runs)
+    out = dict(zip(DTYPES, results, strict=True))
+    ref32 = ref[0]
     return name, static, inst, out, ref32, p32, g32
 
 
