@@ -176,3 +176,37 @@ def test_madams_second_post_gradients(madams):
     for name in ("tan warp", "rational warp"):
         assert abs(w[name]["grad_left_of_d_max"]) < 1e-6 * abs(w["unwindowed_slope_at_d_max"])
         assert w[name]["grad_at_d_max"] == 0.0
+
+
+# ----------------------------------------------------------------------------- VPLs (Yuksel Fig. 1)
+def test_virtual_point_lights(tmp_path):
+    """Inverse square spikes under a VPL; eq. 7 and eq. 8 stay near the bounded disk truth."""
+    out = tmp_path / "vpl"
+    n = _load("virtual_point_lights").main(["--out", str(out), "--quick"])
+    _assert_png(out / "vpl_floor.png", 20_000)
+    assert _numbers(out)["peaks"] == pytest.approx(n["peaks"])
+    r, c, m = n["radius"], np.array(n["centres"]), np.array(n["vpl_normal"])
+    intensity = 1.0 / n["n_vpl"]
+    # The point-light sums at the floor point below the lowest VPL, written out here:
+    # E = sum I max(0, cos_e) max(0, n.l) f(d), cos_e = m.(p - c)/d, n = +z.
+    foot = np.array([c[0, 0], c[0, 1], 0.0])
+    dv = foot - c
+    d = np.linalg.norm(dv, axis=1)
+    weight = intensity * np.maximum(dv @ m / d, 0) * np.maximum(-dv[:, 2] / d, 0)
+    forms = {
+        "inverse square": 1 / d**2,
+        "Yuksel eq. 7": 2 / r**2 * (1 - d / np.sqrt(d**2 + r**2)),
+        "Yuksel eq. 8": 1 / (d**2 + r**2 / 2),
+    }
+    for name, f in forms.items():
+        assert n["foot"][name] == pytest.approx(np.sum(weight * f), rel=1e-9), name
+    # the spike: inverse square's peak is several times the truth's, eq. 7/8's are not
+    peaks = n["peaks"]
+    assert peaks["inverse square"] > 4 * peaks["truth: disks"]
+    for name in ("Yuksel eq. 7", "Yuksel eq. 8"):
+        assert 0.5 < peaks[name] / peaks["truth: disks"] < 1.5
+    # below the lowest VPL (gap h << r) the disk looks like a plane: E ~ I/r^2 (pi L), bounded
+    assert 0.8 * intensity / r**2 < n["foot"]["truth: disks"] < 1.1 * intensity / r**2
+    # as spheres, the VPLs give inverse square's value wherever a receiver exists
+    assert n["inverse_square_vs_spheres_median_abs_rel"] < 1e-2
+    assert n["fraction_inside_spheres"] > 0.0
