@@ -645,12 +645,15 @@ class FitResult:
             x = float(x)
             return x if math.isfinite(x) else str(x)
 
+        def plain_tree(v):  # strict JSON: NaN/inf parameters and errors become strings
+            return [plain_tree(x) for x in v] if isinstance(v, list | tuple) else plain(v)
+
         name = getattr(self.model, "name", None) if isinstance(self.model, Family) else None
         return {
             "family": name,
-            "params": self.params,
+            "params": {k: plain_tree(v) for k, v in self.params.items()},
             "free": list(self.free),
-            "stderr": {k: v for k, v in self.stderr.items()},
+            "stderr": {k: plain_tree(v) for k, v in self.stderr.items()},
             "converged": self.converged,
             "message": self.message,
             "steps": self.steps,
