@@ -147,41 +147,53 @@ def _side_by_side(report, cfg):
 
 
 def _cost_vs_error(report):
+    """Error against shader cost per sweep configuration, as published and fitted, with the
+    Pareto front (`attenfit.cost.plot_cost_vs_error`)."""
     import matplotlib as mpl
 
+    from .cost import plot_cost_vs_error
+
     sweeps = [c for c in report.configs if c.sweep is not None]
-    if not report.costs or not sweeps:
+    costs = {
+        k: v["shader_cost"] for k, v in report.costs.items() if v.get("shader_cost") is not None
+    }
+    if not costs or not sweeps:
+        return None
+    panels = []  # (row, column, config, mode, errors)
+    modes = [m for m in ("published", "fitted") if any(r["mode"] == m for r in report.results)]
+    for j, cfg in enumerate(sweeps):
+        for i, mode in enumerate(modes):
+            errors = {}
+            for fam in report.families:
+                row = report._get(fam, cfg.name, mode)
+                if fam not in costs or row is None or row["status"] != "ok":
+                    continue
+                sw = row["sweep"] or {}
+                st = sw.get("in_range") or sw.get("overall") or {}
+                if st.get("max_abs") is not None:
+                    errors[fam] = float(st["max_abs"])
+            if errors:
+                panels.append((i, j, cfg, mode, errors))
+    if not panels:
         return None
     with mpl.rc_context(plots.STYLE):
-        fig = plots.new_figure((5.0 * len(sweeps), 4.4))
-        axes = fig.subplots(1, len(sweeps), squeeze=False)
-        for ax, cfg in zip(axes[0], sweeps, strict=True):
-            for mode, marker in (("published", "o"), ("fitted", "s")):
-                xs, ys, labels = [], [], []
-                for fam in report.families:
-                    row = report._get(fam, cfg.name, mode)
-                    ns = (report.costs.get(fam) or {}).get("ns_per_eval")
-                    if row is None or row["status"] != "ok" or ns is None:
-                        continue
-                    sw = row["sweep"] or {}
-                    st = sw.get("in_range") or sw.get("overall") or {}
-                    err = st.get("max_abs")
-                    if err is None:
-                        continue
-                    xs.append(ns)
-                    ys.append(min(max(err, 1e-16), 1e3))
-                    labels.append(fam)
-                ax.scatter(xs, ys, marker=marker, s=22, label=mode, alpha=0.8)
-                if mode == "fitted":
-                    for x, y, lab in zip(xs, ys, labels, strict=True):
-                        ax.annotate(
-                            lab, (x, y), fontsize=6.5, xytext=(3, 2), textcoords="offset points"
-                        )
-            ax.set_yscale("log")
-            ax.set_xlabel("cost (ns per evaluation, float32, this machine)")
-            ax.set_ylabel("max |relative error| (in range)")
-            ax.set_title(f"{cfg.name}: cost against error")
-            ax.legend(loc="lower right", framealpha=0.85)
+        fig = plots.new_figure((6.2 * len(sweeps), 4.3 * len(modes)))
+        axes = fig.subplots(len(modes), len(sweeps), squeeze=False)
+        used = set()
+        for i, j, cfg, mode, errors in panels:
+            mode_text = "as published" if mode == "published" else "fitted"
+            plot_cost_vs_error(
+                errors,
+                {k: costs[k] for k in errors},
+                by="shader_cost",
+                ax=axes[i, j],
+                title=f"{cfg.name}, {mode_text}: max |relative error| (in range) against cost",
+            )
+            used.add((i, j))
+        for i in range(len(modes)):
+            for j in range(len(sweeps)):
+                if (i, j) not in used:
+                    axes[i, j].set_visible(False)
     return fig
 
 

@@ -251,7 +251,7 @@ def image_errors(
     model: ArrayLike,
     truth: ArrayLike,
     *,
-    floor: float = 1e-3,
+    floor: float = 1e-6,
     coords: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> dict[str, Any]:
     """Error of a rendered plane image (irradiance on a grid) against the true image.

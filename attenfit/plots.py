@@ -292,7 +292,7 @@ def plot_error_map(
     return fig, ax
 
 
-def _image_rel(model: np.ndarray, truth: np.ndarray, floor: float = 1e-3) -> np.ndarray:
+def _image_rel(model: np.ndarray, truth: np.ndarray, floor: float = 1e-6) -> np.ndarray:
     peak = np.nanmax(truth)
     return (model - truth) / np.maximum(truth, floor * peak)
 

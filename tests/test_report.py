@@ -1,0 +1,204 @@
+"""The comparison report: its numbers against independent closed forms, its files, its CLI.
+
+Reference values are computed here from the textbook forms (groundtruth.md sections 2-4),
+never from attenfit: the facing disk's attenuation is 1/(d^2 + r^2) (Howell B-12), a sphere
+above the horizon is exactly a point light, Yuksel's eq. 7 is 2/(s (s + d)) with
+s = sqrt(d^2 + r^2) and eq. 8 is 1/(d^2 + r^2/2).
+"""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from attenfit import _report_figures
+from attenfit.cli import main
+from attenfit.report import PUBLISHED_CUTOFF, Report, build_report, published_params
+
+FAMILIES = ["inverse_square", "yuksel", "yuksel_adhoc", "disk_facing", "unreal_window"]
+R = 0.1  # the default emitters' radius (m)
+
+
+@pytest.fixture(scope="module")
+def report() -> Report:
+    # 31 log-spaced distances from 1e-3 r to 1e3 r hit d = r exactly (up to rounding)
+    return build_report(families=FAMILIES, sweep_n=31, plane_px=16, cost=False)
+
+
+def test_every_family_and_mode_has_a_result(report):
+    keys = {(r["family"], r["config"], r["mode"]) for r in report.results}
+    assert keys == {
+        (f, c, m) for f in FAMILIES for c in ("sphere", "disk") for m in ("published", "fitted")
+    }
+    pub = [r for r in report.results if r["mode"] == "published"]
+    assert all(r["status"] == "ok" for r in pub)
+
+
+def test_eq8_and_eq7_are_twice_the_facing_disk_at_zero(report):
+    truth0 = 1.0 / R**2  # facing disk, d -> 0
+    for fam, f0 in (("yuksel_adhoc", 1.0 / (R**2 / 2)), ("yuksel", 2.0 / R**2)):
+        z = report.result(fam, "disk")["sweep"]["at_zero"]
+        assert z["value"] == pytest.approx(f0, rel=1e-12)
+        assert z["truth"] == pytest.approx(truth0, rel=1e-10)
+        assert z["ratio"] == pytest.approx(2.0, rel=1e-10)
+    assert report.finding("disk_eq8_at_zero_ratio")["value"] == pytest.approx(2.0, rel=1e-10)
+    assert report.finding("disk_eq7_at_zero_ratio")["value"] == pytest.approx(2.0, rel=1e-10)
+
+
+def test_eq8_with_sqrt2_r_is_the_facing_disk(report):
+    assert report.finding("disk_eq8_sqrt2_max_error")["value"] < 1e-12
+    # and the fit finds r' = sqrt(2) r by itself
+    fitted = report.result("yuksel_adhoc", "disk", "fitted")
+    assert fitted["status"] == "ok"
+    assert fitted["params"]["r"] / R == pytest.approx(math.sqrt(2.0), rel=1e-6)
+    assert report.finding("eq8_between_eq7_and_inverse_square")["value"] == 1.0
+
+
+def test_yuksel_errors_against_the_facing_disk_by_hand(report):
+    sw = report.result("yuksel", "disk")["sweep"]
+    # worst at the nearest sample, d = 1e-3 r: 2 s/(s + d) - 1
+    d = 1e-3 * R
+    s = math.sqrt(d * d + R * R)
+    assert sw["overall"]["max_abs"] == pytest.approx(2 * s / (s + d) - 1, rel=1e-9)
+    assert sw["overall"]["worst_at"] == pytest.approx(d, rel=1e-9)
+    # mid band r..10 r: worst at d = r, 2/(1 + 1/sqrt 2) - 1 = 0.171572875 (groundtruth.md table)
+    assert sw["bands"]["mid"]["max_abs"] == pytest.approx(0.171572875253810, rel=1e-9)
+    # far band: worst at its nearest sample, d = 10^(0.2 k) r just above 10 r
+    d_far = R * 10 ** (1.2)
+    s = math.sqrt(d_far**2 + R**2)
+    assert sw["bands"]["far"]["max_abs"] == pytest.approx(2 * s / (s + d_far) - 1, rel=1e-8)
+
+
+def test_inverse_square_is_exact_against_an_unclipped_sphere(report):
+    row = report.result("inverse_square", "sphere")
+    assert row["sweep"]["overall"]["max_abs"] < 1e-12
+    assert row["sweep"]["bands"]["near"]["n"] == 0  # no receiver inside the sphere
+    assert row["plane"]["image"]["max_abs"] < 1e-12
+    assert row["plane"]["energy"]["ratio"] == pytest.approx(1.0, abs=1e-12)
+    # against the disk it is singular: infinite at d = 0
+    assert report.result("inverse_square", "disk")["sweep"]["at_zero"]["finite"] is False
+
+
+def test_window_energy_dropped_matches_the_point_light_closed_form(report):
+    # Sphere touching the plane (centre at h = r): a point light of unit intensity puts
+    # 2 pi (1 - h/sqrt(h^2 + P^2)) on the disc rho < P and 2 pi h (1/R - 1/dP) beyond distance R.
+    row = report.result("unreal_window", "sphere")
+    rng = R / math.sqrt(PUBLISHED_CUTOFF)
+    assert row["window"]["range"] == pytest.approx(rng, rel=1e-12)
+    P = max(1e3 * R, 3 * rng)
+    dP = math.hypot(R, P)
+    expected = (R / rng - R / dP) / (1 - R / dP)
+    assert row["plane"]["energy"]["discarded_fraction"] == pytest.approx(expected, rel=2e-3)
+    # the window closes smoothly: value and slope at the range are ~0 relative to 1/d^2
+    assert abs(row["window"]["value_rel"]) < 1e-6
+    assert abs(row["window"]["slope_rel"]) < 1e-2
+    # beyond the range it is black: overall worst error -1, inside the range much smaller
+    assert row["sweep"]["overall"]["worst"] == -1.0
+    assert row["sweep"]["in_range"]["max_abs"] < 1.0
+
+
+def test_published_parameters_follow_the_documented_rules():
+    from attenfit import get_family
+
+    p, _ = published_params(get_family("unreal_window"), R)
+    assert p["r_max"] == pytest.approx(R / math.sqrt(1e-3)) and p["eps"] == 1e-4
+    p, _ = published_params(get_family("madams_tan"), R)
+    assert p["d_max"] == pytest.approx(R / math.sqrt(1e-3) - R) and p["r"] == R
+    p, _ = published_params(get_family("polynomial"), R)
+    assert (p["kc"], p["kl"], p["kq"]) == pytest.approx((R * R, 2 * R, 1.0))
+    p, note = published_params(get_family("just_cause_2"), R, truth_at=lambda d: 1 / d**2)
+    # scale * (1 - (r/r_max)^2)^2 = truth(r) = 1/r^2
+    assert p["scale"] * (1 - (R / p["r_max"]) ** 2) ** 2 == pytest.approx(1 / R**2)
+    assert "scale" in note
+
+
+def test_tables_and_json_are_complete(report):
+    rows = report.csv_rows()
+    assert len(rows) == len(FAMILIES) * 2 * 2
+    d = report.to_dict()
+    json.dumps(d, allow_nan=False)  # no NaN or inf sneaks into report.json
+    assert {f["key"] for f in d["findings"]} >= {
+        "sphere_inverse_square_max_error",
+        "disk_eq8_at_zero_ratio",
+        "disk_eq7_at_zero_ratio",
+        "disk_eq8_sqrt2_max_error",
+        "window_unreal_window_energy_dropped",
+    }
+    summary = report.summary_markdown()
+    assert summary.count("\n| `") == len(FAMILIES)
+
+
+def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys):
+    out = tmp_path / "rep"
+    argv = ["report", "--out", str(out), "--families", "yuksel_adhoc", "inverse_square"]
+    argv += ["--emitters", "disk", "--no-fit"]
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "truth: disk" in err and "wrote" in err
+    for name in ("report.md", "report.json", "results.csv"):
+        assert (out / name).is_file()
+    pngs = sorted(p.stem for p in (out / "figures").glob("*.png"))
+    assert pngs == sorted(p.stem for p in (out / "figures").glob("*.svg"))
+    assert "disk_attenuation_published" in pngs and "disk_plane_errors" in pngs
+    md = (out / "report.md").read_text()
+    for png in pngs:
+        assert f"figures/{png}.png" in md
+    data = json.loads((out / "report.json").read_text())
+    f = {x["key"]: x["value"] for x in data["findings"]}
+    assert f["disk_eq8_at_zero_ratio"] == pytest.approx(2.0, rel=1e-10)
+    assert len((out / "results.csv").read_text().strip().splitlines()) == 1 + 2
+
+    # an existing non-empty folder is refused (exit 2), one line, nothing touched
+    before = (out / "report.md").read_text()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        f"attenfit: error: output folder {str(out)!r} exists and is not empty; "
+        "use force=True (--force) to replace it\n"
+    )
+    assert (out / "report.md").read_text() == before
+    assert main(["report", "--out", str(tmp_path / "new"), "--families", "nope", "--no-fit"]) == 2
+    assert "unknown family 'nope'" in capsys.readouterr().err
+
+
+def test_a_failure_mid_report_leaves_the_previous_folder_intact(report, tmp_path, monkeypatch):
+    out = tmp_path / "rep"
+    out.mkdir()
+    (out / "report.md").write_text("previous report\n")
+
+    def boom(*args, **kwargs):
+        (Path(args[1]) / "half-written.png").write_bytes(b"x")
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(_report_figures, "draw_all", boom)
+    with pytest.raises(RuntimeError, match="disk full"):
+        report.write(out, force=True)
+    assert sorted(p.name for p in out.iterdir()) == ["report.md"]
+    assert (out / "report.md").read_text() == "previous report\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no temporary left
+
+
+def test_failed_fits_are_marked_not_presented(report):
+    # against the sphere the best eq. 8 radius is 0 (inverse-square is exact): no optimum
+    row = report.result("yuksel_adhoc", "sphere", "fitted")
+    if row["status"] != "ok":
+        assert row["status"].startswith("fit did not converge")
+        assert row["sweep"] is None and row["params"] is None
+        assert "fit failed" in report.summary_markdown()
+    else:  # a converged fit must then be (nearly) inverse-square
+        assert row["params"]["r"] < 1e-3 * R
+
+
+def test_plots_return_fig_and_ax():
+    from attenfit import plots
+
+    d = np.geomspace(1e-3, 10.0, 50)
+    fig, ax = plots.plot_attenuation(d, {"a": 1 / d**2}, 1 / (d**2 + 0.01), r=0.1)
+    assert ax.get_xscale() == "log" and ax.get_ylabel().startswith("attenuation")
+    fig2, ax2 = plots.plot_relative_error(d, {"a": 1 / d**2}, 1 / (d**2 + 0.01), r=0.1, ax=ax)
+    assert ax2 is ax and fig2 is fig
+    img = np.ones((8, 8))
+    fig3, axes = plots.plot_plane_comparison(img, {"m": 2 * img}, (-1, 1, -1, 1))
+    assert axes.shape == (1, 2)
