@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import math
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -83,9 +84,13 @@ def _disk_segment(c, m, r, L, p, n, nodes):
     T, S = t[:, None], s[None, :]
     xi = r * jnp.cos(T)
     zeta = S * r * jnp.sin(T)
-    v = c[None, None, :] - p + xi[..., None] * wdir + zeta[..., None] * wperp  # x - p
+    v = (
+        (c - p)[None, None, :]
+        + xi[..., None] * wdir[None, None, :]
+        + zeta[..., None] * wperp[None, None, :]
+    )  # x - p
     v2 = _dot(v, v)
-    integrand = jnp.maximum(_dot(v, n), 0) * z / (v2 * v2) * (r * jnp.sin(T)) ** 2
+    integrand = jnp.maximum(_dot(v, n[None, None, :]), 0) * z / (v2 * v2) * (r * jnp.sin(T)) ** 2
     E = L * jnp.sum(wt[:, None] * ws[None, :] * integrand)
     return jnp.where(z > 0, E, 0.0)
 
@@ -115,9 +120,9 @@ def _capsule(a, b, r, L, p, n, nodes):
     front = rho > r
     gamma = jnp.arccos(jnp.clip(r / jnp.where(front, rho, 2 * r), -1.0, 1.0))
     phi, wphi = _gl(nodes, -gamma, gamma, dt)
-    radial = jnp.cos(phi)[:, None] * f1 + jnp.sin(phi)[:, None] * f2  # (nodes, 3)
+    radial = jnp.cos(phi)[:, None] * f1[None, :] + jnp.sin(phi)[:, None] * f2[None, :]  # (nodes, 3)
     # horizon per phi: n.(x - p) = c0 + t ne >= 0, c0 = n.(a + r radial - p)
-    c0 = _dot(n, a - p) + r * _dot(radial, n)
+    c0 = _dot(n, a - p) + r * _dot(radial, n[None, :])
     ne = _dot(n, e)
     tz = -c0 / jnp.where(ne == 0, 1.0, ne)
     lo = jnp.where(ne > 0, jnp.clip(tz, 0.0, ell), 0.0)
@@ -128,11 +133,10 @@ def _capsule(a, b, r, L, p, n, nodes):
     xg, wg = jnp.asarray(xg, dt), jnp.asarray(wg, dt)
     t = (lo + hi)[:, None] / 2 + (hi - lo)[:, None] / 2 * xg[None, :]
     wt = (hi - lo)[:, None] / 2 * wg[None, :]
-    x = a + t[..., None] * e + r * radial[:, None, :]
-    v = x - p
+    v = (a - p)[None, None, :] + t[..., None] * e[None, None, :] + r * radial[:, None, :]  # x - p
     v2 = _dot(v, v)
     cos_e_num = -_dot(v, radial[:, None, :])  # radial . (p - x)
-    integrand = jnp.maximum(_dot(v, n), 0) * jnp.maximum(cos_e_num, 0) / (v2 * v2)
+    integrand = jnp.maximum(_dot(v, n[None, None, :]), 0) * jnp.maximum(cos_e_num, 0) / (v2 * v2)
     E_cyl = jnp.where(front, jnp.sum(wphi[:, None] * wt * integrand) * r, 0.0)
 
     # --- hemispherical ends: x = cen + r omega, omega.axis >= 0 (kinks left in the integrand)
@@ -143,13 +147,13 @@ def _capsule(a, b, r, L, p, n, nodes):
         ph = (jnp.arange(4 * nodes, dtype=dt) + 0.5) * (2 * _PI / (4 * nodes))
         Th, Ph = th[:, None], ph[None, :]
         om = (
-            jnp.cos(Th)[..., None] * axis
-            + (jnp.sin(Th) * jnp.cos(Ph))[..., None] * g1
-            + (jnp.sin(Th) * jnp.sin(Ph))[..., None] * g2
+            jnp.cos(Th)[..., None] * axis[None, None, :]
+            + (jnp.sin(Th) * jnp.cos(Ph))[..., None] * g1[None, None, :]
+            + (jnp.sin(Th) * jnp.sin(Ph))[..., None] * g2[None, None, :]
         )
-        v = cen + r * om - p
+        v = (cen - p)[None, None, :] + r * om
         v2 = _dot(v, v)
-        integ = jnp.maximum(_dot(v, n), 0) * jnp.maximum(-_dot(v, om), 0) / (v2 * v2)
+        integ = jnp.maximum(_dot(v, n[None, None, :]), 0) * jnp.maximum(-_dot(v, om), 0) / (v2 * v2)
         return jnp.sum(wth[:, None] * integ * jnp.sin(Th)) * (2 * _PI / (4 * nodes)) * r * r
 
     E = L * (E_cyl + cap(a, -e) + cap(b, e))
@@ -173,13 +177,21 @@ def irradiance(
     """
     if isinstance(nodes, bool) or not isinstance(nodes, int | np.integer) or nodes < 1:
         raise BadValueError(f"nodes must be a positive integer, got {nodes!r}")
+    if not isinstance(emitter, AbstractEmitter):
+        raise BadTypeError(
+            f"emitter must be a SphereEmitter, DiskEmitter or CapsuleEmitter, got {type(emitter).__name__}"
+        )
     p, n = _receivers(points, normals)
+    return _quadrature_jit(emitter, p, n, int(nodes))
+
+
+@eqx.filter_jit
+def _quadrature_jit(emitter: AbstractEmitter, p: Array, n: Array, nodes: int) -> Array:
     dt = p.dtype
 
     def cast(x):
         return jnp.asarray(x).astype(dt)
 
-    nodes = int(nodes)
     if isinstance(emitter, SphereEmitter):
         c, r = cast(emitter.center), cast(emitter.radius)
         L = cast(emitter.radiance)
