@@ -289,9 +289,10 @@ def tan_warp(d: Real, d_max: Real, gap: Real | None = None) -> tuple[Real, Real]
     inside, u, v = _warp_fraction(d, d_max, gap)
     scale = 2 * d_max / math.pi
     low = u <= 0.5
-    t_low = jnp.tan((math.pi / 2) * jnp.where(low, u, jnp.zeros_like(u)))
-    t_high = jnp.tan((math.pi / 2) * jnp.where(low | ~inside, jnp.full_like(v, 0.5), v))
-    warped = jnp.where(low, scale * t_low, scale / t_high)
+    # One tan of an argument in [0, pi/4]: tan(pi/2 u) itself, or its reciprocal form.
+    t = jnp.tan((math.pi / 2) * jnp.where(low, u, jnp.where(inside, v, jnp.full_like(v, 0.5))))
+    t_safe = jnp.where(low, jnp.ones_like(t), t)
+    warped = jnp.where(low, scale * t, scale / t_safe)
     return jnp.where(inside, warped, jnp.zeros_like(warped)), inside
 
 
@@ -326,12 +327,12 @@ def monotone_cubic(
     (as in scipy's `PchipInterpolator`). Monotone whenever the data are. `xk` (k >= 2) must be
     strictly increasing; `yk` carries the same batch shape as `x` (broadcast them first); `x`
     is clipped to [xk[0], xk[-1]] (extrapolate in the caller). Differentiable in `yk` and `x`
-    (double-`where` around every division).
+    (double-`where` around every division). `yk` may also be a single (k,) row shared by all x.
     """
     shape = x.shape
     k = xk.shape[0]
     x = x.reshape(-1)
-    yk = yk.reshape(-1, k)
+    yk = yk.reshape(-1, k)  # (1, k) for shared knot values: slopes computed once
     h = (xk[1:] - xk[:-1])[None, :]
     delta = (yk[:, 1:] - yk[:, :-1]) / h
     if k == 2:
@@ -348,26 +349,31 @@ def monotone_cubic(
         mn = _pchip_end(h[:, -1], h[:, -2], delta[:, -1], delta[:, -2])
         m = jnp.concatenate([m0[:, None], interior, mn[:, None]], axis=-1)
     xc = jnp.clip(x, xk[0], xk[-1])
-    # Interval index by comparison with the interior knots (k is small).
-    # Interval index by comparison with the interior knots, and one-hot selection instead of
-    # gathers (k is small; this compiles and differentiates cheaply under vmap).
-    i = jnp.sum((xc[:, None] >= xk[None, 1:-1]).astype(jnp.int32), axis=-1)
-    onehot = (jnp.arange(k)[None, :] == i[:, None]).astype(x.dtype)
-    onehot1 = (jnp.arange(k)[None, :] == i[:, None] + 1).astype(x.dtype)
 
-    def at(a: Array, sel: Array) -> Array:
-        return jnp.sum(a * sel[:, : a.shape[-1]], axis=-1)
+    # Interval index and per-interval coefficients by a chain of selects over the k - 1
+    # intervals (k is small): no gathers and no reductions over a short axis, which are slow
+    # on CPU and costly to differentiate under vmap.
+    def interval(j: int):
+        return (yk[:, j], yk[:, j + 1], m[:, j], m[:, j + 1], h[:, j] + jnp.zeros_like(x), xk[j])
 
-    x0 = at(xk[None, :], onehot)
-    hi = at(h, onehot)
+    y0, y1, m0_, m1_, hi, x0 = interval(0)
+    for j in range(1, k - 1):
+        here = xc >= xk[j]
+        yj0, yj1, mj0, mj1, hj, xj = interval(j)
+        y0 = jnp.where(here, yj0, y0)
+        y1 = jnp.where(here, yj1, y1)
+        m0_ = jnp.where(here, mj0, m0_)
+        m1_ = jnp.where(here, mj1, m1_)
+        hi = jnp.where(here, hj, hi)
+        x0 = jnp.where(here, xj, x0)
     t = (xc - x0) / hi
     t2 = t * t
     t3 = t2 * t
     out = (
-        (2 * t3 - 3 * t2 + 1) * at(yk, onehot)
-        + (t3 - 2 * t2 + t) * hi * at(m, onehot)
-        + (-2 * t3 + 3 * t2) * at(yk, onehot1)
-        + (t3 - t2) * hi * at(m, onehot1)
+        (2 * t3 - 3 * t2 + 1) * y0
+        + (t3 - 2 * t2 + t) * hi * m0_
+        + (-2 * t3 + 3 * t2) * y1
+        + (t3 - t2) * hi * m1_
     )
     return out.reshape(shape)
 

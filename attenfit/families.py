@@ -720,7 +720,8 @@ class Spline(Family):
             raise ValueError(f"spline: knot_values has {k} values for {len(self.knots)} knots")
         shape = jnp.broadcast_shapes(d.shape, values.shape[:-1])
         d = jnp.broadcast_to(d, shape)
-        values = jnp.broadcast_to(values, (*shape, k))
+        if values.ndim > 1:  # batched knot values: one row per point
+            values = jnp.broadcast_to(values, (*shape, k))
         interp = parts.monotone_cubic(jnp.broadcast_to(logd, shape), logk, values)
         f_mid = jnp.exp(interp)
         f_first = jnp.exp(values[..., 0])
