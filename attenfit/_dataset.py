@@ -274,9 +274,15 @@ def _solid_radius(emitter: AbstractEmitter) -> float:
 
 
 def _exact(emitter, points, normals, provenance, dtype) -> Dataset:
-    p = jnp.asarray(points, dtype=dtype)
-    n = jnp.asarray(normals, dtype=dtype)
-    E = np.asarray(irradiance(emitter, p, n))
+    p = np.asarray(points, dtype=dtype)
+    n = np.asarray(normals, dtype=dtype)
+    # pad to a power of two (repeating the first receiver) so that builders of similar
+    # sizes share one compilation of `irradiance`
+    size = max(16, 1 << (len(p) - 1).bit_length())
+    pad = np.broadcast_to(p[:1], (size - len(p), 3))
+    pad_n = np.broadcast_to(n[:1], (size - len(p), 3))
+    E = np.asarray(irradiance(emitter, np.concatenate([p, pad]), np.concatenate([n, pad_n])))
+    E = E[: len(p)]
     if not np.all(np.isfinite(E)):  # a bug, not a user error: the builders avoid the invalid set
         raise RuntimeError("irradiance returned non-finite values for builder receivers")
     prov = {

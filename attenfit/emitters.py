@@ -69,43 +69,43 @@ def _check_real(name: str, x: Any, shape: tuple[int, ...]) -> Any:
         raise BadValueError(f"{name} must be {want}, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
         raise BadValueError(f"{name} must be finite, got {arr.tolist()}")
+    dt = _float_dtype(x)
     with np.errstate(over="ignore"):  # an overflow is reported just below
-        out = jnp.asarray(x, dtype=_float_dtype(x))
-    if not bool(jnp.all(jnp.isfinite(out))):
-        raise BadValueError(f"{name} = {arr.tolist()} overflows {out.dtype}")
-    return out
+        cast = arr.astype(dt)  # numpy, so this check also runs while jit is tracing
+    if not np.all(np.isfinite(cast)):
+        raise BadValueError(f"{name} = {arr.tolist()} overflows {np.dtype(dt)}")
+    return jnp.asarray(x, dtype=dt)
 
 
 def _check_positive(name: str, x: Any) -> Any:
-    x = _check_real(name, x, ())
-    if not _is_traced(x) and not float(x) > 0:
-        raise BadValueError(f"{name} must be > 0, got {float(x)!r}")
-    return x
+    out = _check_real(name, x, ())
+    if not _is_traced(x) and not float(np.asarray(x)) > 0:
+        raise BadValueError(f"{name} must be > 0, got {float(np.asarray(x))!r}")
+    return out
 
 
 def _check_radius(name: str, x: Any) -> Any:
     """A positive radius whose square is a normal number of its dtype (else r^2, L overflow)."""
-    given = x
-    x = _check_positive(name, x)
+    out = _check_positive(name, x)
     if not _is_traced(x):
-        fi = jnp.finfo(x.dtype)
+        dt = np.dtype(_float_dtype(x))
+        fi = np.finfo(dt)
         lo, hi = math.sqrt(float(fi.tiny)), math.sqrt(float(fi.max))
-        if not lo < float(x) < hi:
+        if not lo < float(np.asarray(x)) < hi:
             raise BadValueError(
-                f"{name} must lie within ({lo:.3g}, {hi:.3g}) in {x.dtype} (its square must be "
-                f"a normal number), got {float(np.asarray(given)):g}"
+                f"{name} must lie within ({lo:.3g}, {hi:.3g}) in {dt} (its square must be "
+                f"a normal number), got {float(np.asarray(x)):g}"
             )
-    return x
+    return out
 
 
 def _unit(name: str, x: Any) -> Any:
-    x = _check_real(name, x, (3,))
-    if _is_traced(x):
-        return x / jnp.linalg.norm(x)
-    norm = float(np.linalg.norm(np.asarray(x, dtype=np.float64)))
-    if not norm > 0:
-        raise BadValueError(f"{name} must be a non-zero 3-vector, got {np.asarray(x).tolist()}")
-    return x / jnp.linalg.norm(x)
+    out = _check_real(name, x, (3,))
+    if not _is_traced(x):
+        norm = float(np.linalg.norm(np.asarray(x, dtype=np.float64)))
+        if not norm > 0:
+            raise BadValueError(f"{name} must be a non-zero 3-vector, got {np.asarray(x).tolist()}")
+    return out / jnp.linalg.norm(out)
 
 
 def _dot(a: Array, b: Array) -> Array:
