@@ -208,10 +208,10 @@ def surface_sphere(d_s: Real, r: Real) -> Real:
 def cutoff_bias(d: Real, r: Real, cutoff: Real) -> Real:
     """Madams 2011's scale and bias, max(0, (a - c)/(1 - c)) with a = r^2/max(d, r)^2.
 
-    Reaches 0 (with a non-zero slope) at d = r/sqrt(c), the centre-distance form of the
-    post's d_max = r (sqrt(Li/Ic) - 1) for Li = 1. Evaluated as
-    (R - m)(R + m) / (R^2 m^2 ... ) factored, a - c = c (R - m)(R + m)/m^2 with R = r/sqrt(c),
-    so the zero crossing does not cancel catastrophically.
+    Reaches 0 (with a non-zero slope) at d = R = r/sqrt(c), the centre-distance form of the
+    post's d_max = r (sqrt(Li/Ic) - 1) for Li = 1. Evaluated as a - c = c q (q + 2) with
+    q = (R - m)/m, m = max(d, r), so the zero crossing does not cancel (beyond the rounding
+    of R itself).
     """
     m = jnp.where(d > r, d, r)
     big_r = r / jnp.sqrt(cutoff)

@@ -48,18 +48,22 @@ def _run_families(args: argparse.Namespace) -> int:
         return EXIT_OK
     for row in rows:
         params = (
-            ", ".join(
-                f"{p}={v['default']:g}"
-                if isinstance(v["default"], float)
-                else f"{p}={v['default']}"
-                for p, v in row["params"].items()
-            )
+            ", ".join(f"{p}={_fmt_default(v['default'])}" for p, v in row["params"].items())
             or "none"
         )
         print(
             f"{row['name']}\n  f(d)   = {row['formula']}\n  params : {params}\n  source : {row['source']}\n"
         )
     return EXIT_OK
+
+
+def _fmt_default(value) -> str:
+    """A parameter default for the table: numbers with %g, arrays as short lists."""
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_fmt_default(v) for v in value) + "]"
+    if isinstance(value, float):
+        return f"{value:.4g}"
+    return str(value)
 
 
 # ----------------------------------------------------------------------------- other verbs

@@ -524,6 +524,7 @@ def test_cli_families_table_and_json(capsys):
     for name in NAMES:
         assert name in out
     assert "Yuksel 2020" in out and "KHR_lights_punctual" in out
+    assert "params : r=0.1\n" in out and "knot_values=[4.605, 4.595, 3.912," in out
     assert main(["families", "--json"]) == 0
     rows = json.loads(capsys.readouterr().out)
     assert [r["name"] for r in rows] == NAMES
