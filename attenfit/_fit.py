@@ -396,6 +396,12 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
                 u = jnp.where(snap, u_zero, u)
                 best = jnp.where(snap, jnp.minimum(c0, best), best)
                 at_bound.append(snap)
+            elif kind == "positive":
+                # exp(u) cannot reach 0; a parameter that ran towards it is on its bound
+                at_bound.append(jnp.exp(u[j]) < jnp.finfo(dtype).eps ** 1.5)
+            elif kind == "unit":
+                q = jax.nn.sigmoid(u[j])
+                at_bound.append((q < jnp.finfo(dtype).eps) | (q > 1 - jnp.finfo(dtype).eps))
             else:
                 at_bound.append(jnp.zeros((), bool))
         final = from_u(u, values)
@@ -562,7 +568,7 @@ def _message(
 ) -> tuple[bool, str]:
     notes = []
     if at_bound:
-        notes.append(f"on its bound 0: {', '.join(at_bound)}")
+        notes.append(f"on its bound: {', '.join(at_bound)}")
     if not start_finite:
         msg = "the residuals are not finite (NaN or inf) at the starting parameters"
         if code:

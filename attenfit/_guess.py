@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, Float
 
@@ -135,14 +136,16 @@ def linear_candidate(
         cost = jnp.where(ok, jnp.sum(r * r), jnp.inf)
         return r, jac, cost
 
-    _, _, cost = residual_and_jac(coef)
-    for _ in range(4):
+    def gauss_newton(_, carry):
+        coef, cost = carry
         r, jac, _ = residual_and_jac(coef)
         trial = coef - solve_normal(jac, r)
         _, _, trial_cost = residual_and_jac(trial)
         better = trial_cost < cost
-        coef = jnp.where(better, trial, coef)
-        cost = jnp.where(better, trial_cost, cost)
+        return jnp.where(better, trial, coef), jnp.where(better, trial_cost, cost)
+
+    # a loop, not unrolled: the compiled graph (and compile time) stays small
+    coef, _ = jax.lax.fori_loop(0, 4, gauss_newton, (coef, residual_and_jac(coef)[2]))
     coef = coef / jnp.where(norms > 0, norms, 1)
     cand = dict(start)
     for i, p in enumerate(solve_for):

@@ -226,7 +226,7 @@ def test_fit_dataset_fits_irradiance_and_drops_unlit_receivers():
         (dict(loss="l1"), af.UnknownNameError, "unknown loss 'l1'"),
         (dict(free=("radius",)), af.UnknownNameError, "free names 'radius'"),
         (dict(d=np.array([]), target=np.array([])), af.BadValueError, "target is empty"),
-        (dict(d=np.arange(N)), af.BadTypeError, "floating-point"),
+        (dict(d=D.astype(complex)), af.BadTypeError, "floating-point"),
         (dict(weights=-np.ones(N)), af.BadValueError, "weights must be finite and >= 0"),
         (dict(max_steps=0), af.BadValueError, "max_steps"),
         (
