@@ -137,7 +137,7 @@ def _unit(v):
     return v / np.linalg.norm(v)
 
 
-BATCH = 64  # every evaluation is padded to this many receivers: one compilation per emitter kind
+BATCH = 128  # every evaluation is padded to this many receivers: one compilation per emitter kind
 
 
 def ev(emitter, p, n):
