@@ -21,7 +21,6 @@ from pathlib import Path
 from typing import Any
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ._atomic import atomic_write
@@ -385,7 +384,10 @@ def plane_receivers(
     ny, nx = _count("n", ny), _count("n", nx)
     dt = _dtype(dtype)
     up_v = _unit_np(up, "up")
-    ex = _perpendicular(up_v)
+    # grid axes: world x (or y, for an up close to x) made perpendicular to up; +x, +y for up = +z
+    helper = np.array([1.0, 0, 0]) if abs(up_v[0]) < 0.9 else np.array([0, 1.0, 0])
+    ex = helper - (helper @ up_v) * up_v
+    ex /= np.linalg.norm(ex)
     ey = np.cross(up_v, ex)
     c = np.asarray(emitter.reference_point(), dtype=np.float64)
     foot = c - h * up_v

@@ -68,6 +68,7 @@ def test_plane_receivers_values_match_irradiance_of_its_points():
     np.testing.assert_array_equal(ds.E, E)
     x = np.linspace(-1.5, 1.5, 12)
     np.testing.assert_allclose(ds.points[:12, 0], x, rtol=1e-14)  # first row: x varies fastest
+    np.testing.assert_allclose(ds.provenance["x_axis"], [1.0, 0.0, 0.0])
 
 
 def test_random_receivers_cover_clipped_and_below_cases():
