@@ -355,11 +355,15 @@ def _run_gen(args: argparse.Namespace) -> int:
         try:
             data = render_batch(template, args.out, chunk=args.chunk, force=args.force, **options)
         except KeyboardInterrupt:
-            print(
-                f"attenfit gen: finished chunks are kept in {args.out}.parts; "
-                "run the same command again to resume",
-                file=sys.stderr,
-            )
+            from pathlib import Path
+
+            kept = len(list(Path(f"{args.out}.parts").glob("chunk_*.npz")))
+            if kept:
+                print(
+                    f"attenfit gen: {kept} finished chunks are kept in {args.out}.parts; "
+                    "run the same command again to resume",
+                    file=sys.stderr,
+                )
             raise
     rel = data.stderr[data.E > 0] / data.E[data.E > 0]
     med = f"{float(sorted(rel)[len(rel) // 2]):.2g}" if len(rel) else "n/a"
@@ -556,6 +560,9 @@ def _run_report(args: argparse.Namespace) -> int:
         )
 
     check_output_path(args.out, force=args.force, folder=True)  # refuse before any work
+    from ._compile_cache import enable_persistent_cache
+
+    enable_persistent_cache()  # a second run loads the compiled solves instead of compiling
     datasets = {}
     if args.mitsuba:
         from ._dataset import Dataset

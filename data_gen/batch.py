@@ -12,12 +12,14 @@ work folder removed. A receiver's numbers depend only on the seed and its index
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
 import shutil
 import zipfile
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -123,6 +125,52 @@ def render_batch(
             )
         for path in stale:
             path.unlink()
+    try:
+        _render_missing(
+            _Run(lights, points, normals, spp, seed, name, plane, run, folder),
+            results,
+            starts,
+            chunk,
+            progress,
+        )
+    except BaseException:
+        with contextlib.suppress(OSError):
+            folder.rmdir()  # only if no chunk was finished: leave no empty folder behind
+        raise
+    merged = Estimate(
+        *(np.concatenate([getattr(r, f) for r in results if r is not None]) for f in _FIELDS),
+        variant=name,
+    )
+    dataset = dataset_from_estimate(template, merged, spp=spp, seed=seed, plane=plane)
+    dataset.save(out, force=force)
+    shutil.rmtree(folder, ignore_errors=True)
+    return dataset
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What fixes a batch render's numbers, and where its chunks go."""
+
+    lights: list
+    points: np.ndarray
+    normals: np.ndarray
+    spp: int
+    seed: int
+    variant: str
+    plane: Plane | None
+    fingerprint: str
+    folder: Path
+
+
+def _render_missing(
+    run: _Run,
+    results: list[Estimate | None],
+    starts: list[int],
+    chunk: int,
+    progress: Callable[[int, int], None] | None,
+) -> None:
+    """Render the chunks missing from `results` (in place), writing each as it finishes."""
+    total = len(run.points)
     done = sum(len(r.E) for r in results if r is not None)
     if progress is not None and done:
         progress(done, total)
@@ -137,28 +185,20 @@ def render_batch(
                 progress(base + i, total)
 
         est = estimate_detail(
-            lights,
-            points[start:stop],
-            normals[start:stop],
-            spp=spp,
-            seed=seed,
-            variant=name,
-            plane=plane,
+            run.lights,
+            run.points[start:stop],
+            run.normals[start:stop],
+            spp=run.spp,
+            seed=run.seed,
+            variant=run.variant,
+            plane=run.plane,
             first_index=start,
             progress=_per_receiver(tick, stop - start),
         )
-        header = {"run": run, "variant": name, "start": start, "stop": stop}
-        _write_chunk(_chunk_path(folder, k), est, header)
+        header = {"run": run.fingerprint, "variant": run.variant, "start": start, "stop": stop}
+        _write_chunk(_chunk_path(run.folder, k), est, header)
         results[k] = est
         done += stop - start
-    merged = Estimate(
-        *(np.concatenate([getattr(r, f) for r in results if r is not None]) for f in _FIELDS),
-        variant=name,
-    )
-    dataset = dataset_from_estimate(template, merged, spp=spp, seed=seed, plane=plane)
-    dataset.save(out, force=force)
-    shutil.rmtree(folder, ignore_errors=True)
-    return dataset
 
 
 def _per_receiver(tick: Callable[[int, int], None], count: int) -> Callable[[int, int], None]:

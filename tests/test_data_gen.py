@@ -359,6 +359,19 @@ def test_batch_resumes_and_matches_one_pass(tmp_path, monkeypatch, templates):
         render_batch(exact, out, spp=32, seed=2, chunk=6, variant=SCALAR)
 
 
+def test_batch_interrupted_before_a_chunk_leaves_nothing(tmp_path, templates):
+    out = tmp_path / "c.npz"
+
+    def stop(done, total):
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        render_batch(
+            templates["disk facing"], out, spp=8, seed=1, chunk=8, variant=SCALAR, progress=stop
+        )
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_batch_refuses_chunks_of_another_run(tmp_path, templates):
     exact = templates["disk facing"]
     out = tmp_path / "a.npz"
