@@ -382,7 +382,7 @@ def emitter_from_dict(data: Mapping[str, Any]) -> AbstractEmitter:
     if not isinstance(data, Mapping):
         raise BadTypeError(f"an emitter description must be a dict, got {type(data).__name__}")
     kind = data.get("kind")
-    if kind not in _KINDS:
+    if not isinstance(kind, str) or kind not in _KINDS:
         raise UnknownNameError(f"unknown emitter kind {kind!r}; allowed: {sorted(_KINDS)}")
     cls, required, optional = _KINDS[kind]
     missing = [k for k in required if k not in data]
