@@ -1,10 +1,11 @@
 """Mitsuba 3 scenes for attenfit's emitters, as plain data.
 
-A light is described by a small frozen record (`SphereLight`, `DiskLight`, `CapsuleLight`) holding numbers
-only; `scene_dicts` turns a list of them, plus an optional opaque `Plane`, into the plain
-dictionaries that `mitsuba.load_dict` accepts. Each light is a Mitsuba `sphere` or `disk`
-shape carrying an `area` emitter of uniform radiance L (Lambertian), with L the radiance that
-the point-equivalent intensity implies, L = I / (pi r^2) (groundtruth.md section 1).
+A light is described by a small frozen record (`SphereLight`, `DiskLight`, `CapsuleLight`)
+holding numbers only; `scene_components` turns a list of them, plus an optional opaque
+`Plane`, into the plain dictionaries that `mitsuba.load_dict` accepts. Each light is made of
+Mitsuba `sphere`, `disk` or `cylinder` shapes carrying an `area` emitter of uniform radiance
+L (Lambertian), with L the radiance that the point-equivalent intensity implies,
+L = I / (pi r^2) (groundtruth.md section 1).
 
 The irradiance of a set of lights is the sum over *components* (`scene_components`): scenes
 holding the same shapes but differing in which of them emit. Two reasons:
@@ -242,10 +243,11 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
     """The scene components whose irradiance sums to that of `lights` (over `plane`).
 
     Every component holds every shape, so shadows between lights are Mitsuba's; they differ
-    in which shapes emit: disks (front faces) and capsule tubes; sphere lights; one per capsule end: that end's sphere, clipped to its outer half (rendering the caps
-    in component 0 would count a sliver of each inner half twice: shadow rays stop
+    in which shapes emit, in this order: disks (front faces) and capsule tubes; sphere
+    lights; each capsule end's sphere alone, clipped to its outer half (rendering the ends
+    with the tube would count a sliver of each inner half twice: shadow rays stop
     `ShadowEpsilon` short of their target, so the inner half is not hidden near the seam;
-    measured +2% beside a capsule). Last, if any disk is two-sided: the back faces. The
+    measured +2% beside a capsule); last, if any disk is two-sided, the back faces. The
     plane, if any, is an occluder everywhere. `mi` is the `mitsuba` module with a variant set.
     """
     if not lights:
@@ -283,7 +285,7 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
 
 
 def lights_from_emitter(emitter) -> list[Light]:
-    """The `SphereLight`/`DiskLight` records for an `attenfit` emitter (radiance from `.radiance`).
+    """The light records for an `attenfit` emitter (radiance from its `.radiance`).
 
     Accepts `attenfit.SphereEmitter`, `DiskEmitter` and `CapsuleEmitter` (by class name and
     fields, so `data_gen` needs nothing else from `attenfit.emitters`).
