@@ -37,6 +37,7 @@ __all__ = [
     "relative_error",
     "value_at_zero",
     "window_edge",
+    "window_reach",
 ]
 
 #: The distance bands, as (low, high) in units of the light's radius r: near is d < r,
@@ -146,7 +147,9 @@ def attenuation_errors(
 
     Returns `overall` (`error_stats` with `worst_at` the distance of the worst error), `bands`
     (near/mid/far) and, when the curve has a range (a window), `in_range`: the same statistics
-    over the samples with d < range_ only (beyond it a window is black by design, error -1).
+    over the samples with d < range_ only (beyond it a window is black by design, error -1),
+    `inner_half`: over d <= range_/2 (away from the edge, where every window must deviate),
+    and `reach`: `window_reach` for 1% and 10%.
     """
     dd, m, t = _f64("d", d), _f64("model", model), _f64("truth", truth)
     _same_shape(d=dd, model=m, truth=t)
@@ -157,7 +160,32 @@ def attenuation_errors(
     }
     if range_ is not None:
         out["in_range"] = error_stats(np.where(dd < range_, rel, np.nan), dd)
+        out["inner_half"] = error_stats(np.where(dd <= 0.5 * range_, rel, np.nan), dd)
+        out["reach"] = {
+            "1%": window_reach(dd, rel, range_, 0.01),
+            "10%": window_reach(dd, rel, range_, 0.1),
+        }
     return out
+
+
+def window_reach(d: ArrayLike, rel: ArrayLike, range_: float, threshold: float) -> float | None:
+    """How far in from its range a window's deviation reaches, as a fraction of the range.
+
+    Scanning inward from `range_`, the first sampled distance where |rel| <= `threshold`,
+    divided by `range_`: the curve is off by more than `threshold` everywhere between that
+    distance and the range (e.g. 0.27 for Unreal's window at 1%: (1 - x^4)^2 = 0.99 at
+    x = 0.266). None when no sample inside the range is within `threshold`.
+    """
+    dd, e = _f64("d", d), _f64("rel", rel)
+    _same_shape(d=dd, rel=e)
+    inside = np.where((dd < range_) & ~np.isnan(e))[0]
+    if inside.size == 0:
+        return None
+    order = inside[np.argsort(dd[inside])[::-1]]
+    for i in order:
+        if abs(e[i]) <= threshold:
+            return float(dd[i] / range_)
+    return None
 
 
 def value_at_zero(

@@ -115,3 +115,19 @@ def test_image_errors_by_hand():
     assert e["rms"] == pytest.approx(math.sqrt((0.25 + 0 + 0.0625 + 1.0) / 4))
     assert e["energy_ratio"] == pytest.approx(6.504 / 7.0)
     assert metrics.grid_energy(truth, 0.5) == 3.5
+
+
+def test_window_reach_of_unreals_window():
+    # (1 - x^4)^2 is within 1% of 1 up to x = (1 - sqrt(0.99))^(1/4) = 0.2660, 10%: 0.4762
+    R = 2.0
+    d = np.linspace(1e-3, R, 200001)
+    rel = (1 - (d / R) ** 4) ** 2 - 1
+    assert metrics.window_reach(d, rel, R, 0.01) == pytest.approx(
+        (1 - math.sqrt(0.99)) ** 0.25, abs=1e-4
+    )
+    assert metrics.window_reach(d, rel, R, 0.1) == pytest.approx(
+        (1 - math.sqrt(0.9)) ** 0.25, abs=1e-4
+    )
+    assert metrics.window_reach(d, np.full_like(d, -1.0), R, 0.01) is None
+    e = metrics.attenuation_errors(d, 1 + rel, np.ones_like(d), 0.1, range_=R)
+    assert e["inner_half"]["max_abs"] == pytest.approx(1 - (1 - 1 / 16) ** 2, rel=1e-4)

@@ -97,6 +97,15 @@ def test_window_energy_dropped_matches_the_point_light_closed_form(report):
     # beyond the range it is black: overall worst error -1, inside the range much smaller
     assert row["sweep"]["overall"]["worst"] == -1.0
     assert row["sweep"]["in_range"]["max_abs"] < 1.0
+    # inside the range, against 1/d^2: (1 - (d/R)^4)^2 d^2/(d^2 + 1e-4) - 1, written out here
+    d = next(c for c in report.configs if c.name == "sphere").sweep.d
+    err = (1 - (d / rng) ** 4) ** 2 * d**2 / (d**2 + 1e-4) - 1
+    half = d <= rng / 2
+    assert row["sweep"]["inner_half"]["max_abs"] == pytest.approx(
+        np.max(np.abs(err[half])), rel=1e-9
+    )
+    ok = (d < rng) & (np.abs(err) <= 0.01)
+    assert row["sweep"]["reach"]["1%"] == pytest.approx(d[ok].max() / rng, rel=1e-12)
 
 
 def test_published_parameters_follow_the_documented_rules():
@@ -200,5 +209,5 @@ def test_plots_return_fig_and_ax():
     fig2, ax2 = plots.plot_relative_error(d, {"a": 1 / d**2}, 1 / (d**2 + 0.01), r=0.1, ax=ax)
     assert ax2 is ax and fig2 is fig
     img = np.ones((8, 8))
-    fig3, axes = plots.plot_plane_comparison(img, {"m": 2 * img}, (-1, 1, -1, 1))
+    _, axes = plots.plot_plane_comparison(img, {"m": 2 * img}, (-1, 1, -1, 1))
     assert axes.shape == (1, 2)
