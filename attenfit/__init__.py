@@ -20,6 +20,7 @@ from ._family import register_family as register_family
 # --- families (issue 2) ---
 from . import directional as directional
 from . import families as families
+from ._family import family_from_function as family_from_function
 from .directional import lambert_disk as lambert_disk
 from .directional import spot_frostbite as spot_frostbite
 from .directional import spot_t as spot_t

@@ -3,7 +3,7 @@
 import abc
 import dataclasses
 import inspect
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
@@ -13,7 +13,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from ._errors import BadTypeError, BadValueError, UnknownNameError
 
-__all__ = ["Family", "get_family", "list_families", "register_family"]
+__all__ = ["Family", "family_from_function", "get_family", "list_families", "register_family"]
 
 #: The kinds of constraint a parameter can carry (see `Family.constraints`).
 CONSTRAINTS = ("positive", "nonnegative", "unit", "real")
@@ -229,6 +229,61 @@ def register_family(cls: type[Family] | None = None, *, overwrite: bool = False)
         return klass
 
     return add if cls is None else add(cls)
+
+
+def family_from_function(
+    fn: Callable[..., Any],
+    *,
+    name: str,
+    defaults: Mapping[str, Any],
+    formula: str,
+    source: str,
+    default_free: tuple[str, ...] | None = None,
+    register: bool = False,
+    **properties: Any,
+) -> type[Family]:
+    """Make a `Family` class from a plain function ``fn(d, **params) -> f``.
+
+    `defaults` gives the parameters (their order and default values); the remaining class
+    variables (`constraints`, `singular`, `range_param`, `window`, `monotone`,
+    `tends_to_inverse_square`, `length_params`, `units`, `scale_covariant`) may be passed as
+    keywords. `default_free` defaults to every parameter. `fn` receives `d` and the parameters
+    as given (call `attenfit._parts.promote` inside it to share one dtype). With
+    ``register=True`` the class is also registered (see `register_family`).
+    """
+    if not callable(fn):
+        raise BadTypeError(f"family_from_function takes a callable, got {fn!r}")
+    allowed = {
+        "constraints", "singular", "range_param", "window", "monotone",
+        "tends_to_inverse_square", "length_params", "units", "scale_covariant",
+    }  # fmt: skip
+    unknown = sorted(set(properties) - allowed)
+    if unknown:
+        raise UnknownNameError(
+            f"family_from_function: unknown properties {unknown}; allowed: {sorted(allowed)}"
+        )
+    params = dict(defaults)
+    for p in params:
+        if not (isinstance(p, str) and p.isidentifier()):
+            raise BadValueError(f"family_from_function: parameter name {p!r} is not an identifier")
+
+    def __call__(self, d):
+        return fn(d, **{p: getattr(self, p) for p in params})
+
+    namespace: dict[str, Any] = {
+        "__annotations__": dict.fromkeys(params, Any),
+        **params,
+        "__call__": __call__,
+        "__doc__": fn.__doc__ or f"{name}: {formula} ({source})",
+        "__module__": getattr(fn, "__module__", __name__),
+        "name": name,
+        "formula": formula,
+        "source": source,
+        "default_free": tuple(params) if default_free is None else tuple(default_free),
+        **properties,
+    }
+    klass = type(name.title().replace("_", ""), (Family,), namespace)
+    return register_family(klass) if register else klass
 
 
 def list_families() -> list[str]:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 
+import jax
 import jax.numpy as jnp
 import mpmath
 import numpy as np
@@ -532,3 +533,34 @@ def test_cli_families_table_and_json(capsys):
     yk = rows[NAMES.index("yuksel")]
     assert yk["params"] == {"r": {"default": 0.1, "constraint": "positive"}}
     assert yk["default_free"] == ["r"]
+
+
+def test_family_from_function():
+    def windowed_yuksel(d, r, r_max):
+        """Yuksel's curve times the Unreal/Frostbite window."""
+        d, r, r_max = parts.promote(d, r, r_max)
+        d = parts.distance(d)
+        return parts.yuksel(d, r) * parts.smooth_window(d, r_max)
+
+    cls = attenfit.family_from_function(
+        windowed_yuksel,
+        name="windowed_yuksel",
+        defaults={"r": 0.1, "r_max": 10.0},
+        formula="2/(s (s + d)) (1 - (d/r_max)^4)+^2",
+        source="this test",
+        default_free=("r",),
+        length_params=("r", "r_max"),
+        range_param="r_max",
+        window="smooth",
+    )
+    assert issubclass(cls, attenfit.Family) and "windowed_yuksel" not in NAMES
+    assert cls.param_names() == ("r", "r_max") and cls.default_free == ("r",)
+    fam = cls(r=0.2)
+    want = f64(attenfit.Yuksel(r=0.2), 1.0) * (1 - 0.1**4) ** 2
+    assert float(fam(1.0)) == pytest.approx(float(want), rel=1e-14)
+    g = jax.grad(lambda m: m(jnp.float64(1.0)))(fam)
+    assert np.isfinite(float(g.r)) and float(g.r_max) > 0
+    with pytest.raises(attenfit.UnknownNameError, match="unknown properties"):
+        attenfit.family_from_function(
+            windowed_yuksel, name="x", defaults={}, formula="", source="", colour=1
+        )
