@@ -4,8 +4,9 @@ For a sphere and a disk light (16 random receivers each: unclipped, horizon-clip
 below-the-horizon normals, distances 1.05 r..20 r and 0.05 r..20 r), renders with
 `data_gen.render_dataset` at increasing spp with `scalar_rgb` and, when a working libLLVM is
 found, `llvm_ad_rgb`; prints the median relative standard error over receivers with E > 0,
-the wall time per receiver (median of repeats, after a warm-up that compiles the LLVM
-kernels), and the ratio to the peer measured in the same run: `attenfit.irradiance`, the
+the wall and CPU time per receiver (median of repeats, after a warm-up that compiles the
+LLVM kernels; CPU time counts every thread, so it is the fairer figure on a busy machine),
+and the wall-time ratio to the peer measured in the same run: `attenfit.irradiance`, the
 closed form, on the same receivers (jitted, median of 50 calls).
 
 Relative error scales as 1/sqrt(spp); read the spp for a target accuracy off the table.
@@ -22,12 +23,18 @@ import numpy as np
 
 
 def _median_time(fn, repeats: int) -> float:
-    times = []
+    return _median_times(fn, repeats)[0]
+
+
+def _median_times(fn, repeats: int) -> tuple[float, float]:
+    """Median wall and CPU (all threads of this process) seconds of `fn()` over `repeats`."""
+    wall, cpu = [], []
     for _ in range(repeats):
-        t = time.perf_counter()
+        t, c = time.perf_counter(), time.process_time()
         fn()
-        times.append(time.perf_counter() - t)
-    return statistics.median(times)
+        wall.append(time.perf_counter() - t)
+        cpu.append(time.process_time() - c)
+    return statistics.median(wall), statistics.median(cpu)
 
 
 def main() -> None:
@@ -64,7 +71,7 @@ def main() -> None:
     plans = {"scalar_rgb": [256, 1024, 4096, 16384], "llvm_ad_rgb": [1024, 16384, 262144, 1 << 20]}
     print(
         f"\n{'variant':<12} {'light':<7} {'spp':>8} {'median rel. stderr':>19} "
-        f"{'ms / receiver':>14} {'x closed form':>14}"
+        f"{'ms / receiver':>14} {'CPU ms / rec.':>14} {'x closed form':>14}"
     )
     for variant in variants:
         for name, ds in cases.items():
@@ -75,11 +82,13 @@ def main() -> None:
                 def run(ds=ds, spp=spp, out=out, variant=variant):
                     out["d"] = render_dataset(ds, spp=spp, seed=1, variant=variant)
 
-                dt = _median_time(run, 3 if spp <= 4096 else 1) / n
+                dt, cpu = _median_times(run, 3 if spp <= 4096 else 1)
+                dt, cpu = dt / n, cpu / n
                 d = out["d"]
                 rel = float(np.median(d.stderr[d.E > 0] / d.E[d.E > 0]))
                 print(
                     f"{variant:<12} {name:<7} {spp:>8} {rel:>19.2e} {dt * 1e3:>14.3f} "
+                    f"{cpu * 1e3:>14.3f} "
                     f"{dt / peers[name]:>14.0f}",
                     flush=True,
                 )
