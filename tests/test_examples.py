@@ -43,18 +43,24 @@ def _assert_png(path: Path, min_bytes: int = 5_000):
     assert len(data) > min_bytes, f"{path} is suspiciously small ({len(data)} bytes)"
 
 
+def _run_script(name: str, out: Path, *args: str) -> subprocess.CompletedProcess:
+    """Run `python examples/NAME.py --out OUT ARGS` as a user would; it must succeed."""
+    proc = subprocess.run(
+        [sys.executable, str(EXAMPLES / f"{name}.py"), "--out", str(out), *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 0, proc.stderr[-3000:]
+    return proc
+
+
 # ----------------------------------------------------------------------------- Yuksel Fig. 3
 def test_yuksel_fig3_script(tmp_path):
     """Run as a user would; check Yuksel's stated features against the textbook forms."""
     out = tmp_path / "y3"
-    proc = subprocess.run(
-        [sys.executable, str(EXAMPLES / "reproduce_yuksel_fig3.py"), "--out", str(out)],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        cwd=ROOT,
-    )
-    assert proc.returncode == 0, proc.stderr
+    proc = _run_script("reproduce_yuksel_fig3", out)
     assert "Yuksel eq. 7" in proc.stdout
     _assert_png(out / "yuksel_fig3.png")
     nums = _numbers(out)
@@ -210,3 +216,42 @@ def test_virtual_point_lights(tmp_path):
     # as spheres, the VPLs give inverse square's value wherever a receiver exists
     assert n["inverse_square_vs_spheres_median_abs_rel"] < 1e-2
     assert n["fraction_inside_spheres"] > 0.0
+
+
+# ----------------------------------------------------------------------------- custom falloff
+def test_custom_falloff(tmp_path):
+    """A registered Family subclass and a (fn, params) pair fit; the report lists the family.
+
+    Run in a subprocess: registering a family here would add it to this process's registry,
+    which other test modules iterate.
+    """
+    import csv
+
+    out = tmp_path / "custom"
+    _run_script("custom_falloff", out, "--quick")
+    n = _numbers(out)
+    # the (fn, params) pair 1/(d^2 + a d + b) recovers the disk's exact 1/(d^2 + r^2)
+    fn = n["fn_params_fit"]
+    assert fn["converged"]
+    assert fn["a"] == pytest.approx(0.0, abs=1e-6)
+    assert fn["b_over_r2"] == pytest.approx(1.0, rel=1e-6)
+    # the sphere's facing attenuation is 1/d^2 outside it: the softening shrinks away
+    assert n["fits"]["sphere"]["r_fit_over_r"] < 0.05
+    assert n["fits"]["sphere"]["max_rel_error"] < 1e-6
+    assert n["fits"]["disk"]["converged"]
+    # the report compares it, as published (r = the disk's radius), with the built-ins;
+    # its error, recomputed here from the formula against 1/(d^2 + r^2) on a fine sweep
+    r = 0.1
+    d = np.geomspace(1e-3 * r, 1e3 * r, 20001)
+    rel = (1 - np.exp(-(d**2) / r**2)) / d**2 * (d**2 + r**2) - 1
+    errors = n["report_max_rel_error"]
+    sampled = errors["gaussian_softened"]["disk published"]  # a maximum over fewer samples
+    assert 0.9 * np.abs(rel).max() < sampled <= np.abs(rel).max() * (1 + 1e-9)
+    assert errors["disk_facing"]["disk published"] < 1e-9  # the exact curve
+    assert errors["gaussian_softened"]["disk published"] < errors["yuksel"]["disk published"]
+    report = out / "report"
+    assert "gaussian_softened" in (report / "report.md").read_text()
+    with open(report / "results.csv", newline="") as fh:
+        families = {row["family"] for row in csv.DictReader(fh)}
+    assert {"gaussian_softened", "yuksel", "inverse_square"} <= families
+    assert any(report.glob("figures/*.png"))
