@@ -201,6 +201,14 @@ def test_probe_survives_the_libllvm15_abort():
     assert "signal" in why or "exit" in why
 
 
+def test_probe_survives_a_crashing_child(monkeypatch):
+    """Whatever kills the child (here: abort(), as LLVM does) is a failed probe, not a crash."""
+    monkeypatch.setattr(variants, "_probe_cache", {})
+    monkeypatch.setattr(variants, "_PROBE_CODE", "import os; os.abort()")
+    ok, why = variants.probe_llvm("/some/libLLVM.so")
+    assert (ok, why) == (False, "probe killed by signal 6: no output")
+
+
 def test_failed_probes_fall_back_to_scalar_with_one_notice(monkeypatch, capsys):
     monkeypatch.setattr(variants, "_chosen", None)
     monkeypatch.setattr(variants, "probe_llvm", lambda path, **kw: (False, "probe exit 1: boom"))
