@@ -25,10 +25,13 @@
    lights is reported). With `float32`, candidates are evaluated in float32.
 5. **Rank** the candidates within tolerance by shader cost (`attenfit.cost.shader_cost`:
    the per-evaluation operation count of the traced expression, weighted by GPU issue
-   rates), then by measured time (`attenfit.cost.measure_throughput`, when `measure=True`),
-   then by error. The operation count is the primary key because it is deterministic and
-   describes the GPU shader the user will ship, while the measured time is of JAX on this
-   machine's CPU (or GPU) and moves by 10-30% between runs on a shared machine.
+   rates), then by error, then by measured time (`attenfit.cost.measure_throughput`, when
+   `measure=True`; reported for every candidate). The operation count is the primary key
+   because it is deterministic and describes the GPU shader the user will ship, while the
+   measured time is of XLA on this machine's CPU (or GPU) and moves by 10-30% between runs on
+   a shared machine; families with the same operation count (`disk_facing`,
+   `unreal_epsilon`, `yuksel_adhoc` are one expression, 1/(d^2 + c)) are then told apart by
+   accuracy, not by timing noise.
 """
 
 from __future__ import annotations
@@ -229,7 +232,7 @@ class Recommendation:
             "tolerance": self.tolerance,
             "error_floor": self.scene.error_floor,
             "summary": self.summary(),
-            "ranking": "shader_cost, then measured ns_per_eval, then error",
+            "ranking": "shader_cost, then error, then measured ns_per_eval",
             "measured": self.measured,
             "winner": None if self.winner is None else self.winner.to_dict(),
             "runner_up": None if self.runner_up is None else self.runner_up.to_dict(),
@@ -260,7 +263,7 @@ class Recommendation:
         lines += [
             f"Tolerance {_pct(s.tolerance)} (max relative error of the irradiance){floor}; "
             f"constraints: {', '.join(cons) or 'none'}. Ranked by shader cost (operation count), "
-            f"then {'measured time' if self.measured else 'error'}.",
+            f"then error{', then measured time' if self.measured else ''}.",
             "",
             "## What was generated (only the scene's configurations)",
             "",
@@ -514,8 +517,9 @@ def _fit_group(
         ]
     knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.name == "spline" else {}
     n = _bucket(max(len(x.d) for x in datas), 64)
-    b = _bucket(len(datas), 1)
-    # pad every light to n receivers, and the batch to b lights, with zero-weight copies
+    b = _bucket(len(datas), 2)
+    # pad every light to n receivers with zero-weight copies, and the batch to b problems with
+    # copies of the first light (their results are dropped)
     D, T, W = (np.empty((b, n)) for _ in range(3))
     rows = [*range(len(datas)), *([0] * (b - len(datas)))]
     for k, src in enumerate(rows):
@@ -523,7 +527,7 @@ def _fit_group(
         m = len(x.d)
         ok = x.E_irr > 0
         target = np.where(ok, x.E_irr / x.wpt, 1.0)
-        w = np.where(ok, x.E_true / x.denom, 0.0) if k < len(datas) else np.zeros(m)
+        w = np.where(ok, x.E_true / x.denom, 0.0)
         D[k] = np.concatenate([x.d, np.full(n - m, x.d[0])])
         T[k] = np.concatenate([target, np.full(n - m, target[0])])
         W[k] = np.concatenate([w, np.zeros(n - m)])
@@ -837,8 +841,8 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
     def cost_key(c: Candidate):
         return (
             c.shader_cost,
-            c.ns_per_eval if c.ns_per_eval is not None else 0.0,
             c.error,
+            c.ns_per_eval if c.ns_per_eval is not None else 0.0,
             c.family,
         )
 

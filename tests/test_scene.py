@@ -306,15 +306,13 @@ def test_room_inverse_square_is_enough():
     (t,) = rec.truth
     assert t["kind"] == "sphere" and t["radius"] == 0.1
     x, _ = rec.curves["inverse_square"]
-    assert x.min() >= 2.4 * 0.5 / 0.1 - 1e-9  # the table top is the nearest (1.65 m)
-    assert x.max() <= 45.0 + 1e-9
+    assert x.min() >= 1.2 / 0.1 * (1 - 1e-9)  # the distribution's nearest distance, 1.2 m
+    assert x.max() <= 4.5 / 0.1 * (1 + 1e-9)  # the distribution's farthest (floor: 4.27 m)
     assert "glsl" in rec.shaders and "attenfit_inverse_square" in rec.shaders["glsl"]
 
 
 def test_vpl_needs_a_non_singular_family():
-    rec = _recommend(
-        "vpl_on_surface.toml", ("inverse_square", "gltf_range", "clamped", "yuksel", "disk_facing")
-    )
+    rec = _recommend("vpl_on_surface.toml", ("inverse_square", "clamped", "yuksel", "disk_facing"))
     w = rec.winner
     assert w is not None
     assert not attenfit.get_family(w.family).singular
@@ -330,7 +328,7 @@ def test_vpl_needs_a_non_singular_family():
 def test_short_range_needs_a_window_reaching_zero():
     rec = _recommend(
         "short_range.toml",
-        ("inverse_square", "clamped", "frostbite_window", "cryengine_linear", "unreal_window"),
+        ("inverse_square", "clamped", "frostbite_window", "cryengine_linear"),
     )
     w = rec.winner
     assert w is not None
@@ -347,7 +345,7 @@ def test_short_range_needs_a_window_reaching_zero():
 
 
 def test_spotlight_fits_the_directional_falloff():
-    rec = _recommend("spotlight.toml", ("clamped", "yuksel"))
+    rec = _recommend("spotlight.toml", ("inverse_square", "clamped", "yuksel"))
     w = rec.winner
     assert w is not None and w.directional is not None
     assert w.directional.startswith(("spot_frostbite", "spot_threejs"))
@@ -375,7 +373,7 @@ height = 1.0
 [[receivers]]
 kind = "distribution"
 distance = [0.5, 3.0]
-n = 32
+n = 200  # the same padded shape (256) as the example scenes: their compiled solves are reused
 """
 
 
