@@ -199,6 +199,11 @@ class Dataset:
             raise DataFileError(f"dataset file {str(path)!r} does not exist or is not a file")
         try:
             raw = path.read_bytes()
+            if not raw.startswith(b"PK\x03\x04"):  # np.load would call other bytes a pickle
+                raise DataFileError(
+                    f"{str(path)!r} is not a readable attenfit dataset (.npz): "
+                    f"not a zip archive ({len(raw)} bytes, starting {raw[:8]!r})"
+                )
             with np.load(io.BytesIO(raw), allow_pickle=False) as npz:
                 names = set(npz.files)
                 if "header" not in names:

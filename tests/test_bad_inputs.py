@@ -661,7 +661,7 @@ API_CASES = [
         "load-text",
         lambda f: af.Dataset.load(f.text),
         DataFileError,
-        "text.npz' is not a readable attenfit dataset",
+        "text.npz' is not a readable attenfit dataset (.npz): not a zip archive",
     ),
     Case(
         "load-foreign",
@@ -1113,6 +1113,44 @@ CLI_CASES: list[tuple[str, list[Any], str]] = [
     ("export-param-unknown", ["export", "yuksel", "--param", "q=1"], "'q'"),
     ("export-fit-corrupt", ["export", _p("fit_text")], "fit_text.json"),
     ("export-out-exists", ["export", "yuksel", "--out", _p("existing")], "existing.npz' exists"),
+    (
+        "report-unknown-family",
+        ["report", "--families", "nope", "--out", "r"],
+        "unknown family 'nope'",
+    ),
+    (
+        "report-unknown-emitter",
+        ["report", "--emitters", "cone", "--out", "r"],
+        "unknown emitter 'cone'",
+    ),
+    (
+        "report-mitsuba-missing",
+        ["report", "--mitsuba", _p("missing"), "--out", "r"],
+        "no_such_file.npz' does not exist",
+    ),
+    (
+        "report-mitsuba-text",
+        ["report", "--families", "yuksel", "--mitsuba", _p("text"), "--out", "r"],
+        "not a zip archive",
+    ),
+    (
+        "report-out-exists",
+        ["report", "--out", _p("full_dir")],
+        "full_dir' exists and is not empty; use force=True (--force)",
+    ),
+    (
+        "report-out-is-file",
+        ["report", "--out", _p("regular")],
+        "regular_file' exists and is a file, not a folder",
+    ),
+    ("report-out-under-file", ["report", "--out", lambda f: str(f.regular / "r")], "sits under"),
+    ("report-unknown-option", ["report", "--bogus"], "unrecognized arguments: --bogus"),
+    (
+        "truth-unknown-option",
+        [*TRUTH, "--out", "x.npz", "--bogus"],
+        "unrecognized arguments: --bogus",
+    ),
+    ("scene-unknown-option", ["scene", "s.toml", "--bogus"], "unrecognized arguments: --bogus"),
 ]
 
 
