@@ -192,6 +192,13 @@ def _sphere():
     return af.SphereEmitter(SPHERE, 1.0)
 
 
+def _facing_away():
+    """Receivers below a sphere whose normals point away from it: every weight is 0."""
+    pts = np.array([[0.0, 0.0, -3.0], [0.0, 0.0, -4.0]])
+    nrm = np.array([[0.0, 0.0, -1.0], [0.0, 0.0, -1.0]])
+    return af.Dataset(_sphere(), pts, nrm, np.zeros(2), np.zeros(2))
+
+
 class _Dup(af.Family):
     """A user family whose name is taken already."""
 
@@ -546,6 +553,18 @@ API_CASES = [
         lambda f: af.fit_dataset(af.Yuksel(), {"E": 1}),
         BadTypeError,
         "got dict",
+    ),
+    Case(
+        "fit-dataset-nobody-sees-the-light",
+        lambda f: af.fit_dataset(af.Yuksel(), _facing_away()),
+        BadValueError,
+        "no receiver in the dataset sees the light (every weight is 0)",
+    ),
+    Case(
+        "fit-dataset-weights-shape",
+        lambda f: af.fit_dataset(af.Yuksel(), af.Dataset.load(f.valid), weights=np.ones(3)),
+        BadValueError,
+        "weights has shape (3,), the dataset has 8 receivers",
     ),
     # --- builders (ranges backwards, zero, NaN, absurd) and Dataset
     Case(
