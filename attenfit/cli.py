@@ -539,6 +539,12 @@ def _add_report(sub) -> None:
     )
     p.add_argument("--no-fit", action="store_true", help="as published only, no fitted mode")
     p.add_argument(
+        "--sweep-n", type=int, default=160, metavar="N", help="distances per sweep (default 160)"
+    )
+    p.add_argument(
+        "--plane-px", type=int, default=96, metavar="N", help="pixels per plane side (default 96)"
+    )
+    p.add_argument(
         "--force", action="store_true", help="replace an existing non-empty output folder"
     )
     p.set_defaults(run=_run_report)
@@ -579,6 +585,8 @@ def _run_report(args: argparse.Namespace) -> int:
         emitters=args.emitters,
         datasets=datasets,
         fitted=not args.no_fit,
+        sweep_n=args.sweep_n,
+        plane_px=args.plane_px,
         progress=say,
     )
     say("writing figures and tables")

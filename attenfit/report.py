@@ -276,28 +276,51 @@ def _dataset_config(name: str, ds: Any, sweep_n: int) -> _Config:
     se = None if se is None else np.broadcast_to(np.asarray(se, np.float64), E.shape).ravel()
     shape = prov.get("shape")
     label = f"{gen}" + (f" {prov['variant']}, {prov['spp']} spp" if "spp" in prov else "")
-    if shape is not None and len(shape) == 2 and int(np.prod(shape)) == E.size:
+    if shape is not None and len(shape) == 2:
         ny, nx = (int(s) for s in shape)
-        pts = np.asarray(ds.points, np.float64).reshape(ny, nx, 3)
-        nrm = np.asarray(ds.normals, np.float64).reshape(ny, nx, 3)
-        c, axis, _ = _geometry(emitter)
-        u, v = _frame(axis)
-        X = (pts - c) @ u
-        Y = (pts - c) @ v
-        E_exact, _, _ = _exact(emitter, pts.reshape(-1, 3), nrm.reshape(-1, 3))
+        idx = np.asarray(prov.get("grid_index", np.arange(ny * nx)), np.int64)
+        if idx.size != E.size:
+            raise BadValueError(
+                f"dataset {name!r}: provenance grid_index has {idx.size} entries for {E.size} receivers"
+            )
+
+        def grid(values: np.ndarray) -> np.ndarray:
+            img = np.full(ny * nx, np.nan)
+            img[idx] = values
+            return img.reshape(ny, nx)
+
+        pts = np.asarray(ds.points, np.float64).reshape(-1, 3)
+        nrm = np.asarray(ds.normals, np.float64).reshape(-1, 3)
+        up = np.asarray(prov.get("up", nrm[0]), np.float64)
+        ex = np.asarray(prov.get("x_axis", _frame(-up)[0]), np.float64)
+        ey = np.asarray(prov.get("y_axis", np.cross(up, ex)), np.float64)
+        c, _, _ = _geometry(emitter)
+        E_exact, _, _ = _exact(emitter, pts, nrm)
+        X, Y = grid((pts - c) @ ex), grid((pts - c) @ ey)
+        half = prov.get("extent")
+        extent = (
+            (-float(half), float(half), -float(half), float(half))
+            if half is not None
+            else (
+                float(np.nanmin(X)),
+                float(np.nanmax(X)),
+                float(np.nanmin(Y)),
+                float(np.nanmax(Y)),
+            )
+        )
         plane = _Plane(
-            E=E.reshape(ny, nx),
-            dist=d.reshape(ny, nx),
-            weight=w.reshape(ny, nx),
-            extent=(float(X.min()), float(X.max()), float(Y.min()), float(Y.max())),
-            xy=(X, Y),
+            E=grid(E),
+            dist=grid(d),
+            weight=grid(w),
+            extent=extent,
+            xy=(np.nan_to_num(X), np.nan_to_num(Y)),
             rho=None,
             rdist=None,
             rweight=None,
             rE=None,
             description=f"dataset image {ny} x {nx} ({label})",
             truth_label=f"truth ({gen})",
-            E_exact=E_exact.reshape(ny, nx),
+            E_exact=grid(E_exact),
         )
         return _Config(name, kind, emitter, r, None, plane, gen)
     ok = w > 0
@@ -649,7 +672,7 @@ class Report:
         )
         if plane_cfg is not None:
             head.append(f"plane energy / truth, {plane_cfg.name}")
-        head.append("ns / eval")
+        head.append("shader cost")
         lines = [_md_row(head), _md_row(["---"] + ["---:"] * (len(head) - 1))]
         for fam in self.families:
             row = [f"`{fam}`"]
@@ -666,17 +689,40 @@ class Report:
                     "energy"
                 ) or {}
                 row.append(_fmt_num(en.get("ratio")))
-            row.append(_fmt_num((self.costs.get(fam) or {}).get("ns_per_eval"), digits=2))
+            row.append(_fmt_num((self.costs.get(fam) or {}).get("shader_cost"), digits=3))
             lines.append(_md_row(row))
         note = (
             "Cells: the largest |relative error| (model − truth)/truth over each configuration's "
             "sweep (windowed families, marked ᵂ: over the inner half of their range, d ≤ range/2; "
-            "near the range every window must deviate, and beyond it it is black by design; see "
-            "Windows below). *published*: the source's parameters for this light; *fitted*: least squares "
+            "near the range every window must deviate, and beyond it it is black by design; the "
+            "report's Windows table has the rest). *published*: the source's parameters for this light; *fitted*: least squares "
             "on the relative error. Plane energy: the published curve on the plane with the "
-            f"light {'touching it' if plane_cfg is not None and plane_cfg.kind == 'sphere' else 'above it'}."
+            f"light {'touching it' if plane_cfg is not None and plane_cfg.kind == 'sphere' else 'above it'}. "
+            "Shader cost: full-rate ALU instructions per evaluation (`attenfit.cost`; measured "
+            "times are in report.json and results.csv)."
         )
         return "\n".join(lines) + "\n\n" + note + "\n"
+
+    def cost_markdown(self) -> str:
+        """One row per family: shader cost, measured time per evaluation, ratio to 1/d^2."""
+        lines = [
+            _md_row(["family", "shader cost (ALU ops)", "ns / eval", "time / inverse_square"]),
+            _md_row(["---", "---:", "---:", "---:"]),
+        ]
+        for fam in self.families:
+            c = self.costs.get(fam) or {}
+            lines.append(
+                _md_row(
+                    [
+                        f"`{fam}`",
+                        _fmt_num(c.get("shader_cost")),
+                        _fmt_num(c.get("ns_per_eval"), digits=2),
+                        _fmt_num(c.get("ratio_to_inverse_square"), digits=2),
+                    ]
+                )
+            )
+        method = next(iter(self.costs.values())).get("method", "")
+        return "\n".join(lines) + f"\n\n{method}; times are of this machine and this run.\n"
 
     def _get(self, fam: str, cfg: str, mode: str) -> dict[str, Any] | None:
         try:
@@ -798,13 +844,10 @@ class Report:
             out += ["### Windows: what each range costs inside it and what it drops", "", win]
         for c in self.configs:
             out += self._config_markdown(c, figures)
+        if self.costs:
+            out += ["## Cost against error", "", self.cost_markdown(), ""]
         if "cost_vs_error" in figures:
-            out += [
-                "## Cost against error",
-                "",
-                f"![cost against error]({figures['cost_vs_error']})",
-                "",
-            ]
+            out += [f"![cost against error]({figures['cost_vs_error']})", ""]
         out += [
             "## How the numbers were made",
             "",
@@ -1560,11 +1603,22 @@ def readme_section(report: Report, figure: str) -> str:
             "`--emitters sphere disk`, `--families NAME ...`, `--mitsuba FILE.npz ...` (Monte "
             "Carlo datasets from `attenfit gen`), `--force` to replace an existing report.",
             "",
-            f"The default report's summary (attenfit {report.meta['version']}, built in "
-            f"{report.meta['build_seconds']:.0f} s):",
+            "Each family is compared with the exact irradiance of a Lambertian sphere and a "
+            "one-sided disk (radius r = 0.1 m, unit intensity), both **as published** (the "
+            "source's parameters for this light: r = the light's radius, a window's range where "
+            "the facing irradiance falls to 1/1000 of its surface value, engine constants as "
+            "shipped) and **fitted** (least squares on the relative error). The default "
+            "report's summary:",
             "",
             report.summary_markdown(),
+            "The numbers behind the seeds' claims (`findings` in `report.json`):",
+            "",
+            report.findings_markdown(),
             f"![attenuation against distance, facing disk]({figure})",
+            "",
+            "The whole default report takes about a minute of CPU time (two thirds of it the "
+            "fits' compilation and the figures); a second run reuses JAX's compilation cache "
+            "(`~/.cache/attenfit/jax`).",
             "",
             "This section is regenerated by `python -m attenfit.report --readme`.",
             _README_END,
@@ -1573,28 +1627,36 @@ def readme_section(report: Report, figure: str) -> str:
 
 
 def _update_readme(readme: Path, docs: Path) -> None:
+    """Rebuild the default report and rewrite README.md's report section and its figure."""
+    import matplotlib as mpl
+
+    from . import _report_figures, plots
     from ._atomic import atomic_write
 
-    text = readme.read_text(encoding="utf-8")
-    rep = build_report(progress=lambda s: print(f"attenfit report: {s}", flush=True))
-    import tempfile
+    def markers_ok(text: str) -> bool:
+        return (_README_BEGIN in text and _README_END in text) or "<!-- SECTION:report -->" in text
 
-    with tempfile.TemporaryDirectory() as tmp:
-        figs = rep.write_figures(Path(tmp), dpi=100, svg=False)
-        key = next((k for k in figs if k.endswith("disk_attenuation_published")), next(iter(figs)))
-        docs.mkdir(parents=True, exist_ok=True)
-        target = docs / "report_attenuation.png"
-        atomic_write(target, Path(figs[key]).read_bytes(), force=True)
+    if not markers_ok(readme.read_text(encoding="utf-8")):
+        raise BadValueError(f"{readme} has neither the report markers nor <!-- SECTION:report -->")
+    rep = build_report(progress=lambda s: print(f"attenfit report: {s}", flush=True))
+    cfg = next((c for c in rep.configs if c.kind == "disk" and c.sweep is not None), rep.configs[0])
+    fig = _report_figures._two_panel(rep, cfg, "published", "attenuation")
+    docs.mkdir(parents=True, exist_ok=True)
+    target = docs / "report_attenuation.png"
+    with mpl.rc_context(plots.STYLE):
+        atomic_write(target, lambda p: fig.savefig(p, dpi=100, format="png"), force=True)
     section = readme_section(rep, f"{docs.name}/{target.name}")
+    text = readme.read_text(encoding="utf-8")  # read late: others may have edited it meanwhile
+    if not markers_ok(text):
+        raise BadValueError(f"{readme} lost its report markers while the report was built")
     if _README_BEGIN in text and _README_END in text:
         pre, rest = text.split(_README_BEGIN, 1)
         _, post = rest.split(_README_END, 1)
         new = pre + section + post
-    elif "<!-- SECTION:report -->" in text:
-        new = text.replace("<!-- SECTION:report -->", section, 1)
     else:
-        raise BadValueError(f"{readme} has neither the report markers nor <!-- SECTION:report -->")
+        new = text.replace("<!-- SECTION:report -->", section, 1)
     atomic_write(readme, new, force=True)
+    print(f"attenfit report: rewrote {readme} and {target}", flush=True)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

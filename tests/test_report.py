@@ -142,7 +142,7 @@ def test_tables_and_json_are_complete(report):
 def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys):
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "yuksel_adhoc", "inverse_square"]
-    argv += ["--emitters", "disk", "--no-fit"]
+    argv += ["--emitters", "disk", "--no-fit", "--sweep-n", "24", "--plane-px", "12"]
     assert main(argv) == 0
     err = capsys.readouterr().err
     assert "truth: disk" in err and "wrote" in err
@@ -211,3 +211,43 @@ def test_plots_return_fig_and_ax():
     img = np.ones((8, 8))
     _, axes = plots.plot_plane_comparison(img, {"m": 2 * img}, (-1, 1, -1, 1))
     assert axes.shape == (1, 2)
+
+
+def test_datasets_become_configurations(tmp_path, capsys):
+    # Exact datasets stand in for Mitsuba ones (same format; generator "attenfit.irradiance").
+    # A sphere touching a plane and a facing sweep: every receiver sees the whole sphere above
+    # its horizon, where the sphere is exactly a point light (groundtruth.md section 2.1).
+    from attenfit import SphereEmitter, facing_sweep, plane_receivers
+
+    sphere = SphereEmitter(center=(0.0, 0.0, 0.0), radius=R)
+    plane = plane_receivers(sphere, R, 4 * R, n=9, dtype="float64")  # the centre point is dropped
+    sweep = facing_sweep(sphere, 1.5 * R, 100 * R, n=12, dtype="float64")
+    rep = build_report(
+        families=["inverse_square", "yuksel"],
+        emitters=[],
+        datasets={"mc-plane": plane, "mc-sweep": sweep},
+        fitted=False,
+        cost=False,
+    )
+    img = rep.result("inverse_square", "mc-plane")["plane"]["image"]
+    assert img["n"] == 9 * 9 - 1 and img["max_abs"] < 1e-12
+    sw = rep.result("inverse_square", "mc-sweep")["sweep"]
+    assert sw["overall"]["n"] == 12 and sw["overall"]["max_abs"] < 1e-12
+    # yuksel (r) vs the sphere at d = 1.5 r: 2 d^2/(s (s + d)) - 1, s = sqrt(d^2 + r^2)
+    d = 1.5 * R
+    s = math.sqrt(d * d + R * R)
+    assert rep.result("yuksel", "mc-sweep")["sweep"]["overall"]["max_abs"] == pytest.approx(
+        1 - 2 * d * d / (s * (s + d)), rel=1e-9
+    )
+
+    # through the CLI, as --mitsuba files
+    path = tmp_path / "plane.npz"
+    plane.save(path)
+    out = tmp_path / "rep"
+    argv = ["report", "--out", str(out), "--families", "inverse_square", "--emitters", "disk"]
+    argv += ["--no-fit", "--sweep-n", "24", "--plane-px", "12", "--mitsuba", str(path)]
+    assert main(argv) == 0
+    assert "dataset: plane" in capsys.readouterr().err
+    assert (out / "figures" / "plane_plane_side_by_side.png").is_file()
+    data = json.loads((out / "report.json").read_text())
+    assert {c["name"] for c in data["configurations"]} == {"disk", "plane"}
