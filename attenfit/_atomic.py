@@ -108,6 +108,33 @@ def atomic_write(
 
 
 @contextlib.contextmanager
+def _signals_deferred() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back (main thread) until the block is done, then deliver them.
+
+    A handler that records the signal stands in during the block (a thread signal mask
+    would not do: JAX's threads would take the signal).
+    """
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    got: list[int] = []
+    saved = {
+        s: signal.signal(s, lambda signum, frame: got.append(signum))
+        for s in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        yield
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in dict.fromkeys(got):
+            signal.raise_signal(s)
+
+
+@contextlib.contextmanager
 def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
     """Build a folder under a temporary name; move it to `path` only when the block succeeds.
 
@@ -124,9 +151,11 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")
             shutil.rmtree(old, ignore_errors=True)
-            os.replace(path, old)
-        os.replace(tmp, path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+        with _signals_deferred():  # Ctrl-C between the two renames would hide the old folder
+            if old is not None:
+                os.replace(path, old)
+            os.replace(tmp, path)
+            if old is not None:
+                shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

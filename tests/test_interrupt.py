@@ -148,3 +148,47 @@ def test_sigterm_handler_is_restored_after_main():
     before = signal.getsignal(signal.SIGTERM)
     assert main(["families", "--json"]) == 0
     assert signal.getsignal(signal.SIGTERM) is before
+
+
+class _Boom(Exception):
+    pass
+
+
+def test_folder_swap_holds_signals_back(tmp_path):
+    """A signal during the two renames of `atomic_dir` arrives after them, not between."""
+    from attenfit._atomic import _signals_deferred, atomic_dir
+
+    def boom(signum, frame):
+        raise _Boom()
+
+    previous = signal.signal(signal.SIGINT, boom)
+    try:
+        done = []
+        with pytest.raises(_Boom):
+            with _signals_deferred():
+                os.kill(os.getpid(), signal.SIGINT)
+                time.sleep(0.05)
+                done.append("block finished")
+        assert done == ["block finished"]
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    # a failure inside the block leaves the previous folder as it was; success replaces it
+    target = tmp_path / "out"
+    target.mkdir()
+    (target / "a.txt").write_text("old")
+    with pytest.raises(_Boom):
+        with atomic_dir(target, force=True) as tmp:
+            (tmp / "b.txt").write_text("new")
+            raise _Boom()
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["a.txt", "out"]
+    with atomic_dir(target, force=True) as tmp:
+        (tmp / "b.txt").write_text("new")
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["b.txt", "out"]
+    assert oct(target.stat().st_mode & 0o777) == oct(0o777 & ~_umask())
+    assert oct((target / "b.txt").stat().st_mode & 0o777) == oct(0o666 & ~_umask())
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
