@@ -255,3 +255,55 @@ def test_custom_falloff(tmp_path):
         families = {row["family"] for row in csv.DictReader(fh)}
     assert {"gaussian_softened", "yuksel", "inverse_square"} <= families
     assert any(report.glob("figures/*.png"))
+
+
+# ----------------------------------------------------------------------------- the notebook
+def test_explore_notebook_is_committed_clean():
+    """No outputs or execution counts committed, and the generator's output is what is there."""
+    import nbformat
+
+    nb = nbformat.read(EXAMPLES / "explore.ipynb", as_version=4)
+    nbformat.validate(nb)
+    code = [c for c in nb.cells if c.cell_type == "code"]
+    assert code and all(not c.outputs and c.execution_count is None for c in code)
+    proc = subprocess.run(
+        [sys.executable, str(EXAMPLES / "make_explore_notebook.py"), "--check"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+def test_explore_notebook_runs():
+    """Execute the notebook headless (the venv's python3 kernel); check what it prints."""
+    import nbformat
+    from nbclient import NotebookClient
+
+    nb = nbformat.read(EXAMPLES / "explore.ipynb", as_version=4)
+    client = NotebookClient(
+        nb, timeout=240, kernel_name="python3", resources={"metadata": {"path": str(EXAMPLES)}}
+    )
+    client.execute()
+    text = "\n".join(
+        out.get("text", "")
+        for cell in nb.cells
+        if cell.cell_type == "code"
+        for out in cell.outputs
+        if out.get("output_type") == "stream"
+    )
+    images = sum(
+        "image/png" in out.get("data", {})
+        for cell in nb.cells
+        if cell.cell_type == "code"
+        for out in cell.outputs
+    )
+    assert images >= 5
+    # float32: the printed eq. 7 is black at d = 1e5 r, the stable form is 1/d^2 there
+    assert "d = 1e+05 r: naive 0.000000e+00  stable 1.000000e-08" in text
+    # the overflow at 1e21 r: the naive form returns the peak 2/r^2 = 200
+    assert "d = 1e+21 r: naive 2.000000e+02" in text
+    # the (fn, params) fit converged; the room's recommendation is inverse square (d/r >= 12)
+    assert "converged" in text
+    assert "winner: inverse_square" in text
+    assert "float attenfit_inverse_square(float d)" in text
