@@ -796,5 +796,23 @@ def _main(argv: Sequence[str] | None) -> int:
         return EXIT_ERROR
 
 
+def run() -> None:
+    """The console entry point: `main()`, then exit with its code.
+
+    After Ctrl-C or SIGTERM the process leaves through `os._exit` once its output is
+    flushed: an interrupt that lands while XLA is compiling can otherwise crash the
+    interpreter's shutdown (a segfault instead of exit 130/143). Nothing is lost: every
+    output was already committed or removed by the verb's own clean-up.
+    """
+    import os
+
+    code = main()
+    if code in (130, 143):
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 if __name__ == "__main__":
-    sys.exit(main())
+    run()
