@@ -50,6 +50,7 @@ __all__ = ["irradiance"]
 _PI = math.pi
 #: Gauss-Legendre nodes per panel of the capsule's outer integral (5 panels; see the benchmark).
 CAPSULE_NODES = 64
+_CAPSULE_CHUNK = 128
 #: Gauss-Legendre nodes on the disk's visible arc when rho/a is small (see `_disk_one_sided`).
 _ARC_NODES = 32
 #: Below this rho/a the disk's arc integral is done by Gauss-Legendre (analytic form cancels).
@@ -370,6 +371,11 @@ def _capsule_one(a, b, r, I, p, n, *, nodes: int) -> Array:
     kpi = _PI * jnp.ceil(lo / _PI)
     inner = piece(lo, jnp.minimum(hi, kpi)) + piece(jnp.maximum(lo, kpi), hi)
     E = I / (_PI * r * r) * jnp.sum(deta * inner)
+    # Inside the infinite cylinder (rho <= r) but outside the capsule, rays can only enter
+    # through the near end's hemisphere: the capsule looks exactly like that end's sphere.
+    near = jnp.where(alpha_a > 0, a, b)
+    E_end = _sphere_one(near, r, I, p, n)
+    E = jnp.where(rho2 <= r * r, E_end, E)
     return jnp.where(valid, E, jnp.nan)
 
 
@@ -378,7 +384,9 @@ _SIN_SERIES = tuple((-1.0) ** k / math.factorial(2 * k + 3) for k in range(12))
 
 
 # ----------------------------------------------------------------------------- public
-def _kernel(emitter: AbstractEmitter, dtype) -> Callable[[Array, Array], Array]:
+def _kernel(
+    emitter: AbstractEmitter, dtype, capsule_nodes: int = CAPSULE_NODES
+) -> Callable[[Array, Array], Array]:
     def cast(x):
         return jnp.asarray(x).astype(dtype)
 
@@ -394,7 +402,7 @@ def _kernel(emitter: AbstractEmitter, dtype) -> Callable[[Array, Array], Array]:
         return lambda p, n: _disk_one(c, m, r, I, p, n, two_sided=ts)
     if isinstance(emitter, CapsuleEmitter):
         a, b, r, I = (cast(x) for x in (emitter.a, emitter.b, emitter.radius, emitter.intensity))
-        return lambda p, n: _capsule_one(a, b, r, I, p, n, nodes=CAPSULE_NODES)
+        return lambda p, n: _capsule_one(a, b, r, I, p, n, nodes=capsule_nodes)
     raise BadTypeError(
         f"emitter must be a SphereEmitter, DiskEmitter or CapsuleEmitter, got {type(emitter).__name__}"
     )
@@ -428,9 +436,19 @@ def irradiance(
     return _irradiance_jit(emitter, p, n)
 
 
-@eqx.filter_jit
-def _irradiance_jit(emitter: AbstractEmitter, p: Array, n: Array) -> Array:
+def _evaluate(
+    emitter: AbstractEmitter, p: Array, n: Array, capsule_nodes: int = CAPSULE_NODES
+) -> Array:
+    """irradiance at points `p` and unit normals `n` (validated, one dtype), not jitted."""
     shape = p.shape[:-1]
-    kern = _kernel(emitter, p.dtype)
-    E = jax.vmap(kern)(p.reshape(-1, 3), n.reshape(-1, 3))
+    kern = _kernel(emitter, p.dtype, capsule_nodes)
+    pf, nf = p.reshape(-1, 3), n.reshape(-1, 3)
+    if isinstance(emitter, CapsuleEmitter):
+        # chunks of receivers keep the (receivers x nodes) intermediates in cache
+        E = jax.lax.map(lambda x: kern(*x), (pf, nf), batch_size=_CAPSULE_CHUNK)
+    else:
+        E = jax.vmap(kern)(pf, nf)
     return E.reshape(shape)
+
+
+_irradiance_jit = eqx.filter_jit(_evaluate)
