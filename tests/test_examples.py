@@ -307,3 +307,18 @@ def test_explore_notebook_runs():
     assert "converged" in text
     assert "winner: inverse_square" in text
     assert "float attenfit_inverse_square(float d)" in text
+
+
+def test_readme_figure_is_the_scripts_output():
+    """The README's reproduced figure exists, and the numbers committed with it still hold."""
+    readme = (ROOT / "README.md").read_text()
+    rel = "examples/figures/yuksel_fig3/yuksel_fig3.png"
+    assert f"]({rel})" in readme
+    assert (
+        "python examples/reproduce_yuksel_fig3.py --out examples/figures/yuksel_fig3 --force"
+        in readme
+    )
+    _assert_png(ROOT / rel)
+    f = _numbers(ROOT / "examples/figures/yuksel_fig3")["features"]
+    assert f["eq8_between_eq7_and_inverse_square"] is True
+    assert f["disk_at_0_times_r2"] == pytest.approx(1.0, rel=1e-6)
