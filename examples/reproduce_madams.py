@@ -373,7 +373,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
         help="Mitsuba variant (auto: llvm_ad_rgb when a working libLLVM is found)",
     )
     args = _example.parse_args(p, argv)
-    resolution, spp = (32, 64) if args.quick else (64, 256)
+    resolution, spp = (32, 64) if args.quick else (64, 128)
     r = 1.0
 
     cutoff_rows = [[c, d_max_post(r, c), r / math.sqrt(c)] for c in CUTOFFS]
