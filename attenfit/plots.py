@@ -53,6 +53,27 @@ _TRUTH_STYLE = {"color": "black", "linewidth": 3.2, "alpha": 0.35, "zorder": 1}
 _ERR_LABEL = "relative error (model − truth) / truth"
 
 
+def _tick_text(v: float, _pos: Any = None) -> str:
+    """Plain tick labels for log axes ("0.01", "1e-6"): no mathtext, which is slow to lay out."""
+    if v == 0:
+        return "0"
+    a = abs(v)
+    sign = "−" if v < 0 else ""
+    e = np.log10(a)
+    if abs(e - round(e)) < 1e-9:
+        e = round(e)
+        return sign + (f"{a:g}" if -3 <= e <= 3 else f"1e{e}")
+    return sign + f"{a:.3g}"
+
+
+def plain_log_ticks(axis: Any) -> None:
+    """Use `_tick_text` labels (major) and no minor labels on a log or symlog `axis`."""
+    from matplotlib.ticker import FuncFormatter, NullFormatter
+
+    axis.set_major_formatter(FuncFormatter(_tick_text))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def curve_styles(labels: Sequence[str]) -> dict[str, dict[str, Any]]:
     """A distinct colour and line style per label, stable for a given list of labels."""
     import matplotlib as mpl
@@ -156,6 +177,8 @@ def plot_attenuation(
             )
         ax.set_xscale("log")
         ax.set_yscale("log")
+        plain_log_ticks(ax.xaxis)
+        plain_log_ticks(ax.yaxis)
         ax.set_xlabel("distance from the light's centre d (m)")
         ax.set_ylabel("attenuation f(d) (1/m²)")
         if title:
@@ -198,6 +221,8 @@ def plot_relative_error(
         ax.axhline(0.0, color="black", linewidth=0.8)
         ax.set_xscale("log")
         ax.set_yscale("symlog", linthresh=linthresh, linscale=0.5)
+        plain_log_ticks(ax.xaxis)
+        plain_log_ticks(ax.yaxis)
         ax.set_ylim(*ylim)
         ax.set_xlabel("distance in light radii d / r")
         ax.set_ylabel(_ERR_LABEL)
@@ -245,7 +270,9 @@ def plot_plane_image(
         if title:
             ax.set_title(title)
         if colorbar:
-            fig.colorbar(im, ax=ax, label="irradiance E (W/m²)", shrink=0.9)
+            plain_log_ticks(
+                fig.colorbar(im, ax=ax, label="irradiance E (W/m²)", shrink=0.9).ax.yaxis
+            )
     return fig, ax
 
 
@@ -288,7 +315,8 @@ def plot_error_map(
         if title:
             ax.set_title(title)
         if colorbar:
-            fig.colorbar(im, ax=ax, label=_ERR_LABEL, extend="both", shrink=0.9)
+            cb = fig.colorbar(im, ax=ax, label=_ERR_LABEL, extend="both", shrink=0.9)
+            plain_log_ticks(cb.ax.yaxis)
     return fig, ax
 
 
@@ -322,7 +350,8 @@ def plot_side_by_side(
         vmax = float(np.nanmax(t))
         plot_plane_image(t, extent, vmax=vmax, title=truth_label, ax=axes[0], colorbar=False)
         _, ax1 = plot_plane_image(m, extent, vmax=vmax, title=label, ax=axes[1], colorbar=False)
-        fig.colorbar(ax1.images[0], ax=axes[:2], label="irradiance E (W/m²)", shrink=0.9)
+        cb = fig.colorbar(ax1.images[0], ax=axes[:2], label="irradiance E (W/m²)", shrink=0.9)
+        plain_log_ticks(cb.ax.yaxis)
         plot_error_map(
             _image_rel(m, t), extent, vmax=vmax_error, title=f"{label}: error", ax=axes[2]
         )
@@ -355,7 +384,9 @@ def plot_plane_comparison(
         flat = axes.ravel()
         t = np.asarray(truth, dtype=np.float64)
         _, a0 = plot_plane_image(t, extent, title=truth_label, ax=flat[0], colorbar=False)
-        fig.colorbar(a0.images[0], ax=flat[0], label="E (W/m²)", shrink=0.85)
+        plain_log_ticks(
+            fig.colorbar(a0.images[0], ax=flat[0], label="E (W/m²)", shrink=0.85).ax.yaxis
+        )
         last = None
         for ax, (lab, img) in zip(flat[1:], models.items(), strict=False):
             _, ax = plot_error_map(
@@ -370,12 +401,13 @@ def plot_plane_comparison(
         for ax in flat[n:]:
             ax.set_visible(False)
         for i, ax in enumerate(flat[:n]):
+            ax.locator_params(nbins=3)
             if i % ncols:
                 ax.set_ylabel("")
             if i < n - ncols:
                 ax.set_xlabel("")
         if last is not None:
-            fig.colorbar(
+            cb = fig.colorbar(
                 last.images[0],
                 ax=list(flat[1:n]),
                 label=_ERR_LABEL,
@@ -383,4 +415,5 @@ def plot_plane_comparison(
                 shrink=0.6,
                 aspect=30,
             )
+            plain_log_ticks(cb.ax.yaxis)
     return fig, axes
