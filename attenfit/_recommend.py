@@ -962,10 +962,11 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
         else:
             fig = ax.figure
         markers = "os^vDP*X"
+        floor = rec.tolerance * 1e-4  # smaller errors (exact to rounding) are drawn here
         for k, c in enumerate(picks):
             x, e = rec.curves[c.family]
             order = np.argsort(x)
-            e = np.maximum(e[order], 1e-12)
+            e = np.maximum(e[order], floor)
             role = (
                 "winner"
                 if c is rec.winner
@@ -985,7 +986,7 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("d / r (distance from the light's centre over its radius)")
-        ax.set_ylabel("judged error of the irradiance")
+        ax.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
         ax.set_title(f"{rec.scene.name or rec.scene.source}: error at the scene's receivers")
         ax.legend(fontsize=7, loc="best")
         fig.tight_layout()

@@ -88,7 +88,7 @@ SCENE_KEYS: dict[str, dict[str, str]] = {
     },
     "[constraints]": {
         "reach_zero_at_range": "optional, default false; the curve must reach 0 at each light's `range` (so culling there leaves no seam): only windowed families qualify, their range pinned to the light's",
-        "float32": "optional, default false; shading is float32: every candidate is evaluated in float32",
+        "float32": "optional, default false; shading is float32: every candidate is evaluated in float32 (fits run in float64; their parameters are rounded to float32)",
         "families": "optional list of family names; only these are candidates (default: every registered family)",
     },
     "[[lights]]": {

@@ -263,6 +263,37 @@ def test_plane_receivers_are_the_grid(tmp_path):
     assert float(E[0]) == pytest.approx(1 / (0.75**2 + 0.2**2), rel=1e-9)
 
 
+def test_capsule_distribution_distances_are_to_the_segment():
+    scene = Scene.from_dict(
+        {
+            "tolerance": 0.1,
+            "lights": [
+                {
+                    "kind": "capsule",
+                    "radius": 0.05,
+                    "length": 0.6,
+                    "axis": [0.0, 1.0, 0.0],
+                    "position": [0.0, 0.0, 1.0],
+                }
+            ],
+            "receivers": [{"kind": "distribution", "distance": [0.2, 0.8], "n": 8}],
+        },
+        source="capsule.toml",
+    )
+    (truth,) = scene.ground_truth()
+    em = truth.dataset.emitter
+    assert em.kind == "capsule" and float(em.radius) == 0.05
+    assert np.allclose(np.asarray(em.a), [0, -0.3, 1]) and np.allclose(
+        np.asarray(em.b), [0, 0.3, 1]
+    )
+    p = truth.dataset.points
+    # distance to the segment x = 0, z = 1, |y| <= 0.3, computed here
+    dy = np.maximum(np.abs(p[:, 1]) - 0.3, 0)
+    d = np.sqrt(p[:, 0] ** 2 + (p[:, 2] - 1) ** 2 + dy**2)
+    assert d.min() >= 0.2 * (1 - 1e-9) and d.max() <= 0.8 * (1 + 1e-9)
+    assert np.all(truth.dataset.E > 0)  # the default angle [0, 0]: every receiver faces it
+
+
 def test_aperture_profile_against_monte_carlo():
     """The spot's aperture profile is the visible fraction of the source disk (sampled here)."""
     scene = Scene.from_dict(
@@ -302,12 +333,16 @@ def test_room_inverse_square_is_enough():
     assert w is not None and w.family == "inverse_square"
     assert w.status == "pass" and w.error <= rec.tolerance
     assert attenfit.get_family(w.family).window == "none"
-    # only the scene's configurations: one light of radius 0.1, d/r between 12 and 45
-    (t,) = rec.truth
-    assert t["kind"] == "sphere" and t["radius"] == 0.1
+    # only the scene's configurations: a sphere of radius 0.1 and a disk of radius 0.15,
+    # judged at d/r from 8 (1.2 m from the panel) to 45 (4.5 m from the bulb)
+    assert [(t["kind"], t["radius"]) for t in rec.truth] == [("sphere", 0.1), ("disk", 0.15)]
     x, _ = rec.curves["inverse_square"]
-    assert x.min() >= 1.2 / 0.1 * (1 - 1e-9)  # the distribution's nearest distance, 1.2 m
-    assert x.max() <= 4.5 / 0.1 * (1 + 1e-9)  # the distribution's farthest (floor: 4.27 m)
+    assert x.min() >= 1.2 / 0.15 * (1 - 1e-9)
+    assert x.max() <= 4.5 / 0.1 * (1 + 1e-9)
+    # the bulb is exactly a point light here (no receiver sees it cut by its horizon): the
+    # error is the panel's, whose facing curve 1/(d^2 + r^2) is within 1/(d/r)^2 of 1/d^2
+    assert w.error_by_light[0] < 1e-9
+    assert 1e-4 < w.error_by_light[1] <= rec.tolerance
     assert "glsl" in rec.shaders and "attenfit_inverse_square" in rec.shaders["glsl"]
 
 

@@ -20,6 +20,7 @@ jax.config.update("jax_enable_x64", True)  # as the CLI: truth and fits in float
 
 import attenfit  # noqa: E402
 from attenfit._atomic import atomic_write  # noqa: E402
+from attenfit._compile_cache import enable_persistent_cache  # noqa: E402
 from attenfit.scene import SCENE_KEYS, Scene  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
@@ -110,9 +111,10 @@ def examples_table() -> str:
         "|---|---|---|---|---|---|---|",
     ]
     notes = []
+    recs = {}
     for name in ORDER:
         scene = Scene.load(HERE / name)
-        rec = attenfit.recommend(scene, measure=False)
+        rec = recs[name] = attenfit.recommend(scene, measure=False)
         by = {c.family: c for c in rec.candidates}
         w, r = rec.winner, rec.runner_up
         win = f"`{w.label}`" if w else f"none (closest `{rec.closest.label}`)"
@@ -131,12 +133,15 @@ def examples_table() -> str:
         what = f"{n_pass} of {len(rec.candidates)} families pass ({n_excl} excluded); {inv_txt}"
         rows.append(
             f"| `{name}` | {_pct(scene.tolerance)} | {win} | {_pct(w.error if w else None)} "
-            f"| {w.shader_cost if w else '-'} | {run} | {what} |"
+            f"| {f'{w.shader_cost:g}' if w else '-'} | {run} | {what} |"
         )
         if w is not None:
             params = "; ".join(
                 f"light {i}: "
-                + ", ".join(f"{k} = {v:.4g}" for k, v in p.items() if not isinstance(v, list))
+                + (
+                    ", ".join(f"{k} = {v:.4g}" for k, v in p.items() if not isinstance(v, list))
+                    or "no parameters"
+                )
                 for i, p in enumerate(w.params)
             )
             spot = ""
@@ -145,17 +150,29 @@ def examples_table() -> str:
                 spot = "; spot " + ", ".join(
                     f"umbra {d['umbra']:.3g} deg, penumbra {d['penumbra']:.3g} deg" for d in sp
                 )
-            notes.append(f"- `{name}`: {w.label}, {params or 'no parameters'}{spot}.")
+            notes.append(f"- `{name}`: {w.label}: {params}{spot}.")
     rows += ["", "Fitted parameters of the winners:", "", *notes, ""]
+    room, vpl, short, spot = (recs[n] for n in ORDER)
+    rw, vw, sw, pw = room.winner, vpl.winner, short.winner, spot.winner
+    same = [
+        c.family for c in vpl.candidates if c.status == "pass" and c.shader_cost == vw.shader_cost
+    ]
     rows += [
-        "`room.toml` confirms the seed's remark (Madams 2011, comment by John Hughes: at d/r "
-        'around 20 the attenuation "looks a LOT like 1/d^2"): a uniform sphere is exactly a '
-        "point light wherever it is wholly above the receiver's horizon, so inverse square is "
-        "within 2% and nothing cheaper exists. `vpl_on_surface.toml` puts receivers at d/r "
-        "from 0.25, where the singular families are off by orders of magnitude. "
-        "`short_range.toml` asks the curve to reach 0 at the range, so only windowed "
-        "families take part. `spotlight.toml` fits the spot's falloff (curve and angles) "
-        "together with the distance curve, in float32.",
+        f"`room.toml` confirms the seed's remark (Madams 2011, comment by John Hughes: at d/r "
+        f'around 20 the attenuation "looks a LOT like 1/d^2"): `{rw.label}` is within '
+        f"{_pct(rw.error)} (the bulb to {_pct(rw.error_by_light[0])}: a uniform sphere is "
+        f"exactly a point light wherever no receiver sees it cut by its horizon; the panel to "
+        f"{_pct(rw.error_by_light[1])}), and a softened curve does not do better there. "
+        f"`vpl_on_surface.toml` puts receivers at d/r from 0.25: inverse square is off by "
+        f"{_pct(vpl.candidates[[c.family for c in vpl.candidates].index('inverse_square')].error)}; "
+        f"the winner `{vw.label}` ties in cost with {', '.join(f'`{n}`' for n in same if n != vw.family)} "
+        f"(one expression, 1/(d^2 + c), fitted to the same curve; the tie goes to the smaller error, here by rounding). `short_range.toml` asks the curve to "
+        f"reach 0 at the range, so only windowed families take part; `{sw.label}` fades only over "
+        f"the last 20% of the range, beyond every receiver, so its window costs no accuracy. "
+        f"`spotlight.toml` fits the spot's falloff too: with the scene's angles the best falloff "
+        f"errs by {_pct(min(f['error'] for f in spot.directional_fits if 'scene' in f['variant']))}, "
+        f"with fitted angles `{pw.directional}` by "
+        f"{_pct(min(f['error'] for f in spot.directional_fits if 'fitted' in f['variant']))}.",
         "",
     ]
     return "\n".join(rows)
@@ -166,6 +183,7 @@ def section() -> str:
 
 
 def main(argv: list[str]) -> int:
+    enable_persistent_cache()  # as the CLI: a second run loads the compiled solves
     text = section()
     if "--print" in argv:
         print(text)
