@@ -21,6 +21,25 @@ __all__ = ["atomic_dir", "atomic_write", "check_output_path"]
 _TMP_MARK = ".attenfit-tmp"
 
 
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived (raised by the CLI's handlers, and again at a commit point)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+#: Signals the CLI's handlers received. Once one has, nothing more is committed: an
+#: exception raised by a handler inside a callback (e.g. a garbage-collection hook) is
+#: swallowed by Python, so every rename into place checks this first.
+PENDING: list[int] = []
+
+
+def _check_pending() -> None:
+    if PENDING:
+        raise Interrupted(PENDING[0])
+
+
 def _umask() -> int:
     """The process's umask (read by setting and restoring it)."""
     mask = os.umask(0o022)
@@ -96,6 +115,7 @@ def atomic_write(
             tmp_path.write_bytes(data)
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
+        _check_pending()
         if path.exists() and not force:  # appeared while we were writing
             raise OutputExistsError(
                 f"output file {str(path)!r} appeared while writing; not overwritten"
@@ -151,6 +171,7 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")
             shutil.rmtree(old, ignore_errors=True)
+        _check_pending()
         with _signals_deferred():  # Ctrl-C between the two renames would hide the old folder
             if old is not None:
                 os.replace(path, old)

@@ -744,12 +744,26 @@ def get_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class _Terminated(KeyboardInterrupt):
-    """Raised by the SIGTERM handler, so that SIGTERM unwinds like Ctrl-C (outputs stay atomic)."""
+def _on_signal(signum, frame) -> None:
+    """SIGINT and SIGTERM: note the signal (no output is committed after it) and unwind."""
+    from ._atomic import PENDING, Interrupted
+
+    PENDING.append(signum)
+    raise Interrupted(signum)
 
 
-def _on_sigterm(signum, frame) -> None:
-    raise _Terminated()
+def _quiet_interrupts(hook):
+    """An unraisable-exception hook that drops interrupts raised inside callbacks.
+
+    Python swallows (and prints) an exception raised in e.g. a garbage-collection callback;
+    the interrupt is acted on at the next commit point instead (`attenfit._atomic.PENDING`).
+    """
+
+    def quiet(unraisable) -> None:
+        if not isinstance(unraisable.exc_value, KeyboardInterrupt):
+            hook(unraisable)
+
+    return quiet
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -761,14 +775,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     import signal
     import threading
 
-    previous = None
+    from . import _atomic
+
+    saved = {}
+    hook = sys.unraisablehook
     if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _on_sigterm)
+        saved = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        sys.unraisablehook = _quiet_interrupts(hook)
+    _atomic.PENDING.clear()
     try:
         return _main(argv)
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for s, handler in saved.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        sys.unraisablehook = hook
+        _atomic.PENDING.clear()
 
 
 def _main(argv: Sequence[str] | None) -> int:
@@ -786,9 +807,12 @@ def _main(argv: Sequence[str] | None) -> int:
         print(f"attenfit: error: {exc}".replace("\n", " "), file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt as exc:
-        what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
+        import signal
+
+        signum = getattr(exc, "signum", signal.SIGINT)
+        what = "terminated" if signum == signal.SIGTERM else "interrupted"
         print(f"attenfit: {what}; any previous output is unchanged", file=sys.stderr)
-        return 143 if isinstance(exc, _Terminated) else 130
+        return 128 + int(signum)
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:  # a bug: say what, in one line, without a traceback

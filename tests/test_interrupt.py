@@ -14,6 +14,7 @@ import signal
 import subprocess
 import sys
 import time
+import types
 from pathlib import Path
 
 import numpy as np
@@ -141,13 +142,45 @@ def test_report_interrupted_keeps_previous_report(tmp_path, sig, code, word):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]
 
 
-def test_sigterm_handler_is_restored_after_main():
-    """`main` installs its SIGTERM handler only for its own run."""
+def test_signal_handlers_are_restored_after_main():
+    """`main` installs its SIGINT/SIGTERM handlers only for its own run."""
     from attenfit.cli import main
 
-    before = signal.getsignal(signal.SIGTERM)
+    before = [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)]
+    hook = sys.unraisablehook
     assert main(["families", "--json"]) == 0
-    assert signal.getsignal(signal.SIGTERM) is before
+    assert [signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)] == before
+    assert sys.unraisablehook is hook
+
+
+def test_a_swallowed_interrupt_still_blocks_every_commit(tmp_path):
+    """An interrupt raised inside a callback is lost to Python; the commit points see it."""
+    from attenfit import _atomic
+    from attenfit.cli import _quiet_interrupts
+
+    target = tmp_path / "out"
+    target.mkdir()
+    (target / "a.txt").write_text("old")
+    (tmp_path / "f.txt").write_text("old file")
+    _atomic.PENDING.append(signal.SIGTERM)
+    try:
+        with pytest.raises(_atomic.Interrupted) as info:
+            with _atomic.atomic_dir(target, force=True) as tmp:
+                (tmp / "b.txt").write_text("new")
+        assert info.value.signum == signal.SIGTERM
+        with pytest.raises(_atomic.Interrupted):
+            _atomic.atomic_write(tmp_path / "f.txt", "new file", force=True)
+    finally:
+        _atomic.PENDING.clear()
+    assert sorted(p.name for p in tmp_path.rglob("*")) == ["a.txt", "f.txt", "out"]
+    assert (tmp_path / "f.txt").read_text() == "old file"
+    # the unraisable hook stays quiet about interrupts only
+    seen = []
+    quiet = _quiet_interrupts(seen.append)
+    quiet(types.SimpleNamespace(exc_value=_atomic.Interrupted(signal.SIGINT)))
+    other = types.SimpleNamespace(exc_value=RuntimeError("x"))
+    quiet(other)
+    assert seen == [other]
 
 
 class _Boom(Exception):
