@@ -251,10 +251,11 @@ fig""",
 
 A scene (TOML) says which lights and receivers matter and how much error is acceptable;
 `attenfit.recommend` computes the truth only there, fits the candidate families and picks
-the cheapest one within tolerance. `examples/scenes/room.toml` is a 10 cm bulb 2.4 m above a
-floor: d/r between 12 and 45, where (as John Hughes remarks under Madams' post) the curve
-"looks a LOT like 1/d²". To keep this quick, the candidates are restricted to three families
-(the scene's `[constraints] families` key); remove that line to judge every family.""",
+the cheapest one within tolerance. `examples/scenes/room.toml` is a room lit from its
+ceiling, with receivers about 20 light radii away, where (as John Hughes remarks under
+Madams' post) the curve "looks a LOT like 1/d²". To keep this quick, the candidates are
+restricted to three families (the scene's `[constraints] families` key); drop that line to
+judge every family (or run `attenfit scene examples/scenes/room.toml`).""",
     ),
     (
         "code",
@@ -265,18 +266,24 @@ if not scene_path.exists():  # run from the repository root
     scene_path = Path("examples") / scene_path
 scene = attenfit.Scene.load(scene_path)  # validates every key
 print(scene.name, "-", len(scene.lights), "light(s); tolerance", scene.tolerance)
+print(scene.description)
 
 raw = tomllib.loads(scene_path.read_text())
 raw.setdefault("constraints", {})["families"] = ["inverse_square", "clamped", "yuksel"]
 scene = attenfit.Scene.from_dict(raw, source=str(scene_path))
 rec = attenfit.recommend(scene, measure=False)
-print("winner:", rec.winner.family, "- max error", f"{rec.winner.error:.2e}", "- shader cost", rec.winner.shader_cost)
+if rec.winner is not None:
+    print(f"winner: {rec.winner.family} - max error {rec.winner.error:.2e}, "
+          f"shader cost {rec.winner.shader_cost}")
+else:
+    print(f"no family within tolerance; the closest is {rec.closest.family}")
 for c in rec.candidates:
-    print(f"  {c.family:16s} {c.status:5s} error {c.error:.2e}  cost {c.shader_cost}")""",
+    error = "n/a" if c.error is None else f"{c.error:.2e}"
+    print(f"  {c.family:16s} {c.status:8s} error {error:9s} cost {c.shader_cost}  ({c.reason})")""",
     ),
     (
         "code",
-        """print(rec.shaders["glsl"])""",
+        """print(rec.shaders.get("glsl", "(no winner, no shader)"))""",
     ),
     (
         "md",
