@@ -161,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
         key = f"{row['config']} {row['mode']}"
         summary.setdefault(row["family"], {})[key] = None if err is None else float(err)
     columns = sorted({k for v in summary.values() for k in v})
-    print("report: max relative error on the facing sweep")
+    print("report: max relative error on the facing sweep (None: no result, see report.md)")
     print(
         _example.table(
             [[f, *(summary[f].get(c) for c in columns)] for f in names], ["family", *columns]
