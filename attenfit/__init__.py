@@ -67,6 +67,10 @@ from ._fit import fit_dataset as fit_dataset
 from ._fit import fit_many as fit_many
 
 # --- metrics and report (issue 6) ---
+from . import metrics as metrics
+from . import plots as plots
+from .report import Report as Report
+from .report import build_report as build_report
 # --- cost, scene, export (issue 7) ---
 # scene files and recommendations (issue 7, part 2)
 from . import scene as scene

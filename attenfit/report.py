@@ -811,7 +811,7 @@ class Report:
         if not n:
             return ""
         return (
-            f"Against the {cfg.name} ({cfg.plane.description.split(';')[0]}), as published. "
+            f"Against the {cfg.name}, as published; energies on {cfg.plane.description.split(';')[0]}. "
             "'Off by > 1% from': the fraction of the range beyond which the curve is off by more "
             "than 1% all the way to the range. f·d² and the slope are taken just inside the range, relative to inverse-square there "
             "(0 and 0: the window closes smoothly; 1 and 1: no window). The energy columns "
