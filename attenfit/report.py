@@ -45,6 +45,7 @@ from ._errors import BadTypeError, BadValueError, UnknownNameError
 __all__ = [
     "DEFAULT_RADIUS",
     "PUBLISHED_CUTOFF",
+    "PUBLISHED_RULES",
     "SWEEP_N",
     "Report",
     "build_report",
@@ -352,6 +353,23 @@ def _range_of(model: Any) -> float | None:
         return float(np.asarray(model.range_distance()))
     p = type(model).range_param
     return None if p is None else float(np.asarray(getattr(model, p)))
+
+
+#: How `published_params` chooses each family's parameters, as written into report.md.
+PUBLISHED_RULES: tuple[str, ...] = (
+    'a light radius (`r`; `r_min` of `clamped` and `cryengine_linear`, "the radius of the '
+    "physical object emitting the light\", RTR4) is the emitter's radius r;",
+    f"a window's range is r/√{PUBLISHED_CUTOFF:g} = {1 / math.sqrt(PUBLISHED_CUTOFF):.3g} r, where "
+    "the facing irradiance has fallen to 1/1000 of its value at the light's surface (Madams "
+    "2011's example cutoff); Madams' warps take d_max = range − r (surface distance) and "
+    "`madams_cutoff` the cutoff 1e-3 itself;",
+    "`polynomial` takes Madams' kc = 1, kl = 2/r, kq = 1/r² applied to centre distance and "
+    "divided by r² (kc = r², kl = 2r, kq = 1), as a renderer plugging its centre distance into "
+    "Madams' factors would;",
+    "a free `scale` (Just Cause 2, Unreal's exponential mode) matches the truth at d = r;",
+    "engine constants (Unreal's eps = 1 cm², Frostbite's 1 cm clamp, Godot's exponent 1, "
+    "three.js's decay 2, Unreal's exponent) and the spline's knots keep the family defaults.",
+)
 
 
 def published_params(cls: type, r: float, truth_at: Callable[[float], float] | None = None):
@@ -852,9 +870,10 @@ class Report:
             "## How the numbers were made",
             "",
             f"* Truth: {', '.join(sorted({c.source for c in self.configs}))}; computed in float64.",
-            f"* As published: {_first_paragraph(published_params.__doc__)} Range = r/√{PUBLISHED_CUTOFF:g} "
-            f"= {1 / math.sqrt(PUBLISHED_CUTOFF):.3g} r.",
-            "* Fitted: `attenfit.fit_many`, relative loss, each family's default free parameters, "
+            "* As published (`published_params`):",
+            *(f"  * {rule}" for rule in PUBLISHED_RULES),
+            "* Fitted: `attenfit.fit_many` (every family in one solve), relative loss, each family's "
+            "default free parameters, "
             "started from the published values; windowed families are fitted inside their "
             "range only (weights 0 beyond it). A fit that does not converge is marked and its "
             "numbers are not shown.",
@@ -1047,15 +1066,6 @@ def _fmt_params(p: Mapping[str, Any] | None) -> str:
         else:
             parts.append(f"{k}={v:.4g}")
     return ", ".join(parts)
-
-
-def _first_paragraph(doc: str | None) -> str:
-    if not doc:
-        return ""
-    body = doc.split("\n\n", 1)[1] if "\n\n" in doc else doc
-    lines = [ln.strip() for ln in body.splitlines()]
-    text = " ".join(ln for ln in lines if ln)
-    return text.replace("* ", "").strip()
 
 
 def _describe_emitter(c: _Config) -> str:
