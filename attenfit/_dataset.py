@@ -277,7 +277,21 @@ def _solid_radius(emitter: AbstractEmitter) -> float:
     return 0.0 if isinstance(emitter, DiskEmitter) else float(emitter.radius)
 
 
+def _check_reach(far: float, dtype: Any) -> None:
+    """Refuse receivers so far from the light (m) that d^2 overflows `dtype`."""
+    limit = math.sqrt(float(np.finfo(dtype).max)) / 16
+    if not far < limit:
+        raise BadValueError(
+            f"receivers reach {far:g} m from the light; in {np.dtype(dtype)} they must stay "
+            f"within {limit:.3g} m (d^2 overflows beyond)"
+        )
+
+
 def _exact(emitter, points, normals, provenance, dtype) -> Dataset:
+    centre = np.asarray(emitter.reference_point(), dtype=np.float64)
+    offsets = np.asarray(points, np.float64) - centre
+    scale = float(np.max(np.abs(offsets))) or 1.0  # scaled norm: no overflow in float64 either
+    _check_reach(scale * float(np.max(np.linalg.norm(offsets / scale, axis=-1))), dtype)
     p = np.asarray(points, dtype=dtype)
     n = np.asarray(normals, dtype=dtype)
     # pad to a power of two (repeating the first receiver) so that builders of similar
@@ -471,6 +485,7 @@ def random_receivers(
             f"d_min ({d_min}) must exceed the {emitter.kind}'s radius ({solid}): receivers would be inside"
         )
     dt = _dtype(dtype)
+    _check_reach(d_max + 2 * _solid_radius(emitter) + float(getattr(emitter, "length", 0.0)), dt)
     rng = np.random.default_rng(int(seed))
     r = float(emitter.radius)
 

@@ -598,6 +598,18 @@ API_CASES = [
         "d_max must be finite and > 0, got inf",
     ),
     Case(
+        "sweep-absurd-float32",
+        lambda f: af.facing_sweep(_sphere(), 2.0, 1e300, dtype="float32"),
+        BadValueError,
+        "receivers reach 1e+300 m from the light; in float32 they must stay within",
+    ),
+    Case(
+        "random-absurd-float64",
+        lambda f: af.random_receivers(_sphere(), 4, 2.0, 1e200, seed=1),
+        BadValueError,
+        "in float64 they must stay within 8.38e+152 m",
+    ),
+    Case(
         "sweep-n-zero",
         lambda f: af.facing_sweep(_sphere(), 2.0, 3.0, n=0),
         BadValueError,
@@ -995,6 +1007,11 @@ CLI_CASES: list[tuple[str, list[Any], str]] = [
     ("truth-range-text", [*TRUTH, "--range", "near:far", "--out", "x.npz"], "got 'near:far'"),
     ("truth-range-zero", [*TRUTH, "--range", "0:2", "--out", "x.npz"], "got '0:2'"),
     ("truth-range-huge", [*TRUTH, "--range", "2:1e400", "--out", "x.npz"], "got '2:1e400'"),
+    (
+        "truth-range-absurd-float32",
+        [*TRUTH, "--range", "2:1e300", "--dtype", "float32", "--out", "x.npz"],
+        "in float32 they must stay within",
+    ),
     (
         "truth-samples-zero",
         [*TRUTH, "--samples", "0", "--out", "x.npz"],
