@@ -202,16 +202,18 @@ def _validate_data(
             f"d has shape {d.shape} but target has shape {target.shape}; they must match"
         )
     if not np.all(np.isfinite(d)) or np.any(d < 0):
-        bad = d[~(np.isfinite(d) & (d >= 0))].flat[0]
+        bad = d[~(np.isfinite(d) & (d >= 0))].flat[0].item()
         raise BadValueError(f"d must be finite distances >= 0, got {bad!r}")
     if not np.all(np.isfinite(target)):
-        raise BadValueError(f"target must be finite, got {target[~np.isfinite(target)].flat[0]!r}")
+        raise BadValueError(
+            f"target must be finite, got {target[~np.isfinite(target)].flat[0].item()!r}"
+        )
     if loss == "absolute":
         if np.any(target < 0):
-            raise BadValueError(f"target must be >= 0, got {target[target < 0].flat[0]!r}")
+            raise BadValueError(f"target must be >= 0, got {target[target < 0].flat[0].item()!r}")
     elif np.any(target <= 0):
         raise BadValueError(
-            f"target must be > 0 for the {loss!r} loss, got {target[target <= 0].flat[0]!r} "
+            f"target must be > 0 for the {loss!r} loss, got {target[target <= 0].flat[0].item()!r} "
             "(use loss='absolute' for zero targets)"
         )
     if weights is not None:
@@ -221,7 +223,7 @@ def _validate_data(
                 f"weights has shape {weights.shape} but target has shape {target.shape}; they must match"
             )
         if not np.all(np.isfinite(weights)) or np.any(weights < 0):
-            bad = weights[~(np.isfinite(weights) & (weights >= 0))].flat[0]
+            bad = weights[~(np.isfinite(weights) & (weights >= 0))].flat[0].item()
             raise BadValueError(f"weights must be finite and >= 0, got {bad!r}")
         if not np.all(np.any(weights > 0, axis=-1)):
             raise BadValueError("weights are all 0 (in at least one problem); nothing to fit")
@@ -279,7 +281,7 @@ def _validate_options(
         }[kind]
         if not np.all(ok):
             raise BadValueError(
-                f"start value of {name!r} must be {_CONSTRAINT_WORDS[kind]}, got {v[~ok].flat[0]!r}"
+                f"start value of {name!r} must be {_CONSTRAINT_WORDS[kind]}, got {v[~ok].flat[0].item()!r}"
             )
     return free
 
