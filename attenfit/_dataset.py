@@ -112,9 +112,12 @@ class Dataset:
         if stderr.shape != (n,):
             raise BadValueError(f"stderr must have shape {(n,)} or be a scalar, got {stderr.shape}")
         if np.any(stderr < 0):
-            raise BadValueError("stderr must be >= 0")
+            raise BadValueError(f"stderr must be >= 0, got {stderr[stderr < 0].flat[0].item()!r}")
         if n and not np.all(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0):
-            raise BadValueError("normals must be non-zero vectors")
+            zero = int(np.argmin(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0))
+            raise BadValueError(
+                f"normals must be non-zero vectors; normal {zero} is {normals[zero].tolist()}"
+            )
         if not isinstance(self.provenance, Mapping):
             raise BadTypeError(f"provenance must be a dict, got {type(self.provenance).__name__}")
         prov = dict(self.provenance)

@@ -667,7 +667,15 @@ API_CASES = [
             _sphere(), np.ones((2, 3)) * 3, np.ones((2, 3)), np.ones(2), -np.ones(2)
         ),
         BadValueError,
-        "stderr must be >= 0",
+        "stderr must be >= 0, got -1.0",
+    ),
+    Case(
+        "dataset-zero-normal",
+        lambda f: af.Dataset(
+            _sphere(), np.ones((2, 3)) * 3, np.eye(3)[[0, 0]] * [[1], [0]], np.ones(2), np.zeros(2)
+        ),
+        BadValueError,
+        "normal 1 is [0.0, 0.0, 0.0]",
     ),
     # --- dataset files: missing, a folder, zero-byte, text, foreign, truncated, corrupt
     Case(
