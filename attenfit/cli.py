@@ -553,17 +553,66 @@ def _add_report(sub) -> None:
 def _run_report(args: argparse.Namespace) -> int:
     import time
 
-    from ._atomic import check_output_path
-    from .report import build_report
-
     t0 = time.perf_counter()
+    # A signal's exception can be swallowed when it lands in a callback that ignores
+    # exceptions (JAX's garbage-collection hook prints "Exception ignored"): remember every
+    # SIGINT/SIGTERM and re-raise it at the next progress line, before the report is moved
+    # into place, so an interrupted report is never committed.
+    caught: list[tuple[int, object]] = []
+    restore = _remember_signals(caught)
 
     def say(msg: str) -> None:
+        if caught:
+            signum, handler = caught[0]
+            if callable(handler):
+                handler(signum, None)  # raises as the original handler does
+            raise KeyboardInterrupt
         print(
             f"attenfit report: [{time.perf_counter() - t0:5.1f} s] {msg}",
             file=sys.stderr,
             flush=True,
         )
+
+    try:
+        return _report_with(args, say, t0)
+    finally:
+        restore()
+
+
+def _remember_signals(caught: list):
+    """Wrap the SIGINT/SIGTERM handlers to record the signal first; return the undo."""
+    import signal
+
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        try:
+            prev = signal.getsignal(sig)
+            if prev in (signal.SIG_IGN, None):
+                continue
+
+            def handler(signum, frame, prev=prev):
+                caught.append((signum, prev))
+                if callable(prev):
+                    prev(signum, frame)
+                raise KeyboardInterrupt
+
+            signal.signal(sig, handler)
+            previous[sig] = prev
+        except (ValueError, OSError):  # not the main thread: leave the handlers alone
+            pass
+
+    def restore() -> None:
+        for sig, prev in previous.items():
+            signal.signal(sig, prev)
+
+    return restore
+
+
+def _report_with(args: argparse.Namespace, say, t0: float) -> int:
+    import time
+
+    from ._atomic import check_output_path
+    from .report import build_report
 
     check_output_path(args.out, force=args.force, folder=True)  # refuse before any work
     from ._compile_cache import enable_persistent_cache

@@ -974,12 +974,16 @@ class Report:
         check_output_path(folder, force=force, folder=True)
         with atomic_dir(folder, force=force) as tmp:
             figs = self.write_figures(tmp / "figures", dpi=dpi, svg=svg, progress=progress)
+            if progress is not None:
+                progress("tables: report.md, report.json, results.csv")
             rel = {k: f"figures/{Path(v).name}" for k, v in figs.items()}
             (tmp / "report.md").write_text(self.markdown(rel), encoding="utf-8")
             (tmp / "report.json").write_text(
                 json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n", encoding="utf-8"
             )
             (tmp / "results.csv").write_text(self.csv_text(), encoding="utf-8")
+            if progress is not None:
+                progress(f"complete; moving it into place as {folder}")
         return Path(folder)
 
     def csv_text(self) -> str:
