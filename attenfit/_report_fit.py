@@ -70,6 +70,18 @@ def _to_param(kind: str, u: np.ndarray) -> np.ndarray:
     return np.asarray(to_param(kind, np.asarray(u, np.float64)), np.float64)
 
 
+def _on_bound(kind: str, v: np.ndarray) -> bool:
+    """A fitted value on its constraint's edge (as `attenfit.fit` flags it): 0, or 0/1 for a unit."""
+    eps = float(np.finfo(np.float64).eps)
+    if kind == "positive":  # exp(u) never reaches 0: ran towards it
+        return bool(np.any(v < eps**1.5))
+    if kind == "nonnegative":
+        return bool(np.any(v == 0))
+    if kind == "unit":
+        return bool(np.any((v < eps) | (v > 1 - eps)))
+    return False
+
+
 def fit_all(
     problems: Sequence[tuple[type, dict[str, Any], np.ndarray, np.ndarray, np.ndarray]],
     *,
@@ -189,6 +201,11 @@ def fit_all(
             "steps": int(fr.steps),
             "loss": float(fr.loss),
             "free": [n for n, f in zip(lay.names, lay.free, strict=True) if f],
+            "at_bound": [
+                n
+                for n, kind, isfree in zip(lay.names, lay.kinds, lay.free, strict=True)
+                if isfree and _on_bound(kind, np.asarray(fitted[n], np.float64))
+            ],
             "solver": "attenfit.fit_many, levenberg_marquardt, relative loss (all families in one solve)",
             "last_params": {
                 k: (v if isinstance(v, float) else np.asarray(v).tolist())

@@ -86,6 +86,11 @@ def test_small_report_on_extreme_lights():
             failed += 1
             assert key[2] == "fitted" and row["status"].startswith("fit"), key
             assert row["sweep"] is None and row["params"] is None
+    # outside a sphere the truth is exactly 1/d^2: Unreal's eps runs to its bound 0, and the
+    # fit says so (report.json keeps the fit's `at_bound`)
+    eps_fit = rows[("unreal_epsilon", "tiny", "fitted")]["fit"]
+    assert eps_fit["at_bound"] == ["eps"], eps_fit
+    assert all("at_bound" in r["fit"] for k, r in rows.items() if k[2] == "fitted")
     md = rep.markdown({})
     assert md.count("fit failed") >= failed
     # Yuksel as published (its r = the sphere's) is worst at contact: 1 - (2 - sqrt 2) =
