@@ -49,10 +49,10 @@ def _vals(report, fam, cfg, mode, part):
     return v.get(part)
 
 
-def _curves(report, cfg, fams, mode) -> dict[str, np.ndarray]:
+def _curves(report, cfg, fams, mode, part="sweep") -> dict[str, np.ndarray]:
     out = {}
     for fam in fams:
-        v = _vals(report, fam, cfg, mode, "sweep")
+        v = _vals(report, fam, cfg, mode, part)
         if v is not None:
             out[fam] = v
     return out
@@ -71,20 +71,21 @@ def _two_panel(report, cfg, mode: str, kind: str):
         axes = fig.subplots(1, len(groups), squeeze=False)
         mode_text = "as published" if mode == "published" else "fitted"
         for ax, (fams, what) in zip(axes[0], groups, strict=True):
-            curves = _curves(report, cfg, fams, mode)
+            dense = kind == "attenuation" and sw.dense_d is not None
+            curves = _curves(report, cfg, fams, mode, "dense" if dense else "sweep")
             title = f"{cfg.name}, {mode_text}: families {what}"
             if kind == "attenuation":
                 pts = None
-                if sw.stderr is not None:
+                if sw.stderr is not None or dense:
                     pts = (sw.d, sw.truth, sw.stderr)
                 plots.plot_attenuation(
-                    sw.d,
+                    sw.dense_d if dense else sw.d,
                     curves,
                     None if pts is not None else sw.truth,
                     r=cfg.radius,
                     truth_label=f"truth ({cfg.source.split(' ')[0]})",
                     truth_points=pts,
-                    truth_points_label=f"truth ({cfg.source}, ±2σ)",
+                    truth_points_label=f"truth ({cfg.source}{', ±2σ' if sw.stderr is not None else ''})",
                     styles=styles,
                     title=title,
                     legend="below",

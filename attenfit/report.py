@@ -81,6 +81,8 @@ class _Sweep:
     truth0: float | None  # true attenuation at d -> 0 (None: inside the emitter)
     truth_max: float
     description: str
+    #: Distances at which the curves are drawn when the truth is sparse samples (a dataset).
+    dense_d: np.ndarray | None = None
 
 
 @dataclasses.dataclass
@@ -335,6 +337,7 @@ def _dataset_config(name: str, ds: Any, sweep_n: int) -> _Config:
         truth0=None,
         truth_max=float(np.nanmax(tt)),
         description=f"{dd.size} dataset samples ({label})",
+        dense_d=np.geomspace(dd.min(), dd.max(), 240) if dd.size >= 2 and dd.min() > 0 else None,
     )
     return _Config(name, kind, emitter, r, sweep, None, gen)
 
@@ -431,6 +434,8 @@ def _values(model: Any, cfg: _Config) -> dict[str, np.ndarray]:
     if cfg.sweep is not None:
         parts["sweep"] = cfg.sweep.d
         parts["zero"] = np.zeros(1)
+        if cfg.sweep.dense_d is not None:
+            parts["dense"] = cfg.sweep.dense_d
     if cfg.plane is not None:
         parts["plane"] = cfg.plane.dist.ravel()
         if cfg.plane.rho is not None:
