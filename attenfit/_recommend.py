@@ -806,9 +806,9 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
             at = float(x.d[int(np.argmax(errs[worst]))])
             reason += f" (worst at d = {at:.3g} m, d/r = {at / x.radius:.3g}, light {worst})"
             if not converged:
-                reason += f"; the fit did not converge ({message})"
+                reason += f"; the fit did not converge ({_short(msgs)})"
         elif not converged:
-            reason = f"within tolerance, though the solver reported: {message}"
+            reason = f"within tolerance, though the fit did not converge ({_short(msgs)})"
         if status == "pass" and scene.reach_zero_at_range:
             for x, m in zip(datas, models, strict=True):
                 problem = _check_reaches_zero(m, float(x.range))  # type: ignore[arg-type]
@@ -878,6 +878,15 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
         measured=bool(measure),
         curves=curves,
     )
+
+
+def _short(messages: Sequence[str]) -> str:
+    """The first sentence of the first message that is not plain "converged"."""
+    for m in messages:
+        if m.strip() != "converged":
+            first = m.replace("optimistix: ", "").split(". ")[0].strip().rstrip(".")
+            return first
+    return "converged"
 
 
 def _plain_params(model: Family) -> dict[str, Any]:
