@@ -460,3 +460,22 @@ def test_cli_no_family_within_tolerance_exits_0(tmp_path, capsys):
     assert main(["scene", str(path), "--no-measure"]) == 0
     printed = capsys.readouterr().out
     assert "**no family meets the tolerance 0.1%; closest: " in printed
+
+
+def test_reach_zero_check_names_the_value_at_the_range():
+    from attenfit._recommend import _check_reaches_zero
+
+    window = attenfit.get_family("frostbite_window")
+    assert _check_reaches_zero(window(r_max=3.0), 3.0) is None
+    # madams_cutoff reaches 0 at r / sqrt(cutoff) = 3 (to rounding)
+    assert (
+        _check_reaches_zero(
+            attenfit.get_family("madams_cutoff")(r=0.05, cutoff=(0.05 / 3) ** 2), 3.0
+        )
+        is None
+    )
+    # a window at 3.5 m is still lit at 3 m: (1 - (3/3.5)^4)^2 / 3^2, computed here
+    expected = (1 - (3 / 3.5) ** 4) ** 2 / 9
+    assert _check_reaches_zero(window(r_max=3.5), 3.0) == (
+        f"does not reach 0 at the range 3 (f = {expected:.3g} there)"
+    )
