@@ -1388,6 +1388,10 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
         except Exception as exc:  # e.g. a user's family that cannot be traced under a switch
             outs = [None] * len(problems)
             error = f"{type(exc).__name__}: {exc}"
+
+        def start_of(cls, c):
+            return pub[(cls.name, c.name)][0]
+
         for (cls, c, rg), out in zip(keys, outs, strict=True):
             if out is None:
                 results.append(_failed(cls.name, c, f"fit error: {error}"))
@@ -1395,7 +1399,9 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
             params, info = out
             if params is None:
                 results.append(
-                    _failed(cls.name, c, f"fit did not converge: {info['message']}", info)
+                    _failed(
+                        cls.name, c, f"fit did not converge: {_why(info, start_of(cls, c))}", info
+                    )
                 )
                 continue
             try:
@@ -1410,6 +1416,25 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
                     cls.name, c, "fitted", model, note=note, fit=info, store=values, range_=rg
                 )
             )
+
+
+def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
+    """Why a fit did not converge, in words: a parameter running off to a bound says so."""
+    moved = []
+    for k, v in (info.get("last_params") or {}).items():
+        s0 = start.get(k)
+        if s0 is None or np.ndim(v) or np.ndim(s0) or not float(s0) > 0:
+            continue
+        if 0 <= float(v) < 1e-2 * float(s0):
+            moved.append(f"{k} heads to 0 ({k} = {float(v):.2g})")
+        elif float(v) > 30 * float(s0):
+            moved.append(f"{k} heads to infinity ({k} = {float(v):.3g})")
+    if moved:
+        return (
+            f"no finite optimum: {'; '.join(moved)} after {info.get('steps')} steps, "
+            f"loss {float(info.get('loss', float('nan'))):.2g}"
+        )
+    return str(info.get("message", ""))
 
 
 def _failed(fam: str, c: _Config, status: str, info: dict | None = None) -> dict[str, Any]:
