@@ -21,6 +21,11 @@ from jaxtyping import Array, Float
 
 __all__ = ["INVERSE_LINEAR", "linear_candidate", "scale_candidates"]
 
+#: Gauss-Newton steps refining the linear start of an inverse-linear family. Each one
+#: costs about as much as a solver step, and saves one (1,000 polynomial fits: 8 solver
+#: steps from the plain linear start, 4 after 4 refinements, 2 after 6: 90 ms against 103).
+GAUSS_NEWTON_STEPS = 6
+
 #: Scale factors tried for the free length parameters (1 is the caller's start).
 SCALES = tuple(float(2.0**k) for k in range(-8, 9) if k != 0)
 
@@ -122,7 +127,8 @@ def linear_candidate(
 
     # 2. Gauss-Newton on the loss itself (the model is 1/g, g linear in the coefficients);
     #    a step is kept only where g stays positive and the loss drops.
-    def residual_and_jac(c):
+    def normal_equations(c):
+        """`J^T J`, `J^T r` and the loss (x2) of the residuals at coefficients `c`."""
         g = cols @ c + fixed_part
         ok = jnp.all(g > 0) & jnp.all(jnp.isfinite(g))
         gs = jnp.where(g > 0, g, 1)
@@ -134,18 +140,21 @@ def linear_candidate(
             r, dr_dg = 1 / gs - target, -1 / (gs * gs)
         r, jac = weights * r, (weights * dr_dg)[:, None] * cols
         cost = jnp.where(ok, jnp.sum(r * r), jnp.inf)
-        return r, jac, cost
+        return jac.T @ jac, jac.T @ r, cost
 
     def gauss_newton(_, carry):
-        coef, cost = carry
-        r, jac, _ = residual_and_jac(coef)
-        trial = coef - solve_normal(jac, r)
-        _, _, trial_cost = residual_and_jac(trial)
+        # the normal equations of the kept coefficients ride along (k x k, cheap to
+        # carry): one evaluation, of the trial point, per iteration
+        coef, jtj, jtr, cost = carry
+        trial = coef - spd_solve(jtj + eye * (jnp.finfo(dtype).eps * jnp.trace(jtj)), jtr)
+        trial_jtj, trial_jtr, trial_cost = normal_equations(trial)
         better = trial_cost < cost
-        return jnp.where(better, trial, coef), jnp.where(better, trial_cost, cost)
+        keep = lambda new, old: jnp.where(better, new, old)  # noqa: E731
+        return keep(trial, coef), keep(trial_jtj, jtj), keep(trial_jtr, jtr), keep(trial_cost, cost)
 
     # a loop, not unrolled: the compiled graph (and compile time) stays small
-    coef, _ = jax.lax.fori_loop(0, 4, gauss_newton, (coef, residual_and_jac(coef)[2]))
+    carry = (coef, *normal_equations(coef))
+    coef = jax.lax.fori_loop(0, GAUSS_NEWTON_STEPS, gauss_newton, carry)[0]
     coef = coef / jnp.where(norms > 0, norms, 1)
     cand = dict(start)
     for i, p in enumerate(solve_for):

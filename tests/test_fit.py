@@ -107,6 +107,46 @@ def test_other_solvers_reach_the_same_answer(solver):
     )
 
 
+def test_normal_equations_step_solves_the_damped_least_squares_problem():
+    # The damped Gauss-Newton step [J; sqrt(lam) I] x = [r; 0] (least squares), as the LM
+    # descent poses it, against numpy's lstsq of the same augmented system.
+    import lineax as lx
+
+    from attenfit._solvers import NORMAL_CHOLESKY
+
+    rng = np.random.default_rng(3)
+    jac = rng.normal(size=(N, 3)) * np.array([1.0, 1e3, 1e-3])  # badly scaled columns
+    r = rng.normal(size=N)
+    for lam in (1e-6, 1.0, 1e4):
+        aug = np.vstack([jac, np.sqrt(lam) * np.eye(3)])
+        rhs = np.concatenate([r, np.zeros(3)])
+        want = np.linalg.lstsq(aug, rhs, rcond=None)[0]
+        got = lx.linear_solve(
+            lx.MatrixLinearOperator(jnp.asarray(aug)), jnp.asarray(rhs), NORMAL_CHOLESKY
+        )
+        np.testing.assert_allclose(np.asarray(got.value), want, rtol=1e-8, atol=1e-12)
+
+
+def test_lm_with_normal_equations_matches_lm_with_qr():
+    # Same fit, the default LM (normal equations) against the same LM with optimistix's
+    # QR step, from a far start without the data-derived guess (so the solver does the work).
+    import lineax as lx
+
+    from attenfit._solvers import LevenbergMarquardt
+
+    target = 1 / (1.0 + 0.3 * D + 0.05 * D**2)
+    start = af.Polynomial(kc=50.0, kl=10.0, kq=0.01)
+    default = af.fit(start, D, target, guess=False)
+    qr = af.fit(
+        start, D, target, guess=False, solver=LevenbergMarquardt(1e-8, 1e-8, linear_solver=lx.QR())
+    )
+    assert default.converged and qr.converged, (default.message, qr.message)
+    for p, want in (("kc", 1.0), ("kl", 0.3), ("kq", 0.05)):
+        assert abs(default.params[p] - want) < 1e-6 * want
+        assert abs(default.params[p] - qr.params[p]) < 1e-6 * want
+    assert default.steps <= qr.steps + 2
+
+
 def test_gauss_newton_without_damping_fails_visibly_on_a_rational_family():
     # Undamped Gauss-Newton from a far start jumps past the pole of 1/(kc + kl d + kq d^2):
     # the result must say it did not converge (never raise, never claim success wrongly).
