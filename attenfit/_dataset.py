@@ -294,7 +294,22 @@ def _exact(emitter, points, normals, provenance, dtype) -> Dataset:
     centre = np.asarray(emitter.reference_point(), dtype=np.float64)
     offsets = np.asarray(points, np.float64) - centre
     scale = float(np.max(np.abs(offsets))) or 1.0  # scaled norm: no overflow in float64 either
-    _check_reach(scale * float(np.max(np.linalg.norm(offsets / scale, axis=-1))), dtype)
+    dist = scale * np.linalg.norm(offsets / scale, axis=-1)
+    _check_reach(float(np.max(dist)), dtype)
+    # the light's radius and the receivers' distances must square to normal numbers too
+    small = math.sqrt(float(np.finfo(dtype).tiny))
+    dt_name = np.dtype(dtype).name
+    if not float(emitter.radius) > small:
+        raise BadValueError(
+            f"the light's radius is {float(emitter.radius):g} m; in {dt_name} it must exceed "
+            f"{small:.3g} m (its square underflows)"
+        )
+    nearest = float(np.min(dist[dist > 0], initial=math.inf))
+    if not nearest > small:
+        raise BadValueError(
+            f"a receiver is {nearest:g} m from the light's centre; in {dt_name} distances "
+            f"must exceed {small:.3g} m (their squares underflow)"
+        )
     p = np.asarray(points, dtype=dtype)
     n = np.asarray(normals, dtype=dtype)
     # pad to a power of two (repeating the first receiver) so that builders of similar

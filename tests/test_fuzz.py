@@ -333,12 +333,53 @@ def test_scene_load_on_mutated_files(data):
     assert isinstance(scene, Scene) and scene.lights and 0 < scene.tolerance <= 1
 
 
+GOOD = st.sampled_from(["1", "0.5", "2e-3", "40", "1e3"])
+BAD = st.sampled_from(["0", "-1", "nan", "inf", "-inf", "1e-30", "1e300", "1e40", "abc", ""])
+NUMBERS = st.one_of(GOOD, GOOD, GOOD, BAD)  # mostly valid, so that some runs get far
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
+@given(data=st.data())
+def test_cli_truth_on_arbitrary_options(data):
+    """`attenfit truth` with arbitrary option values: exit 0 with a valid file, or exit 2."""
+    import contextlib
+    import io
+
+    from attenfit.cli import main
+
+    EXAMPLES["cli truth"] += 1
+    out = WORK / "cli.npz"
+    out.unlink(missing_ok=True)
+    argv = ["truth", "--emitter", data.draw(st.sampled_from(["sphere", "disk", "capsule"]))]
+    argv += ["--radius", data.draw(NUMBERS)]
+    for opt in ("--intensity", "--length", "--height", "--extent"):
+        if data.draw(st.integers(0, 3)) == 0:
+            argv += [opt, data.draw(NUMBERS)]
+    if data.draw(st.booleans()):
+        lo, hi = data.draw(NUMBERS), data.draw(NUMBERS)
+        argv += ["--range", f"{lo}:{hi}"]
+    argv += ["--receivers", data.draw(st.sampled_from(["facing", "plane", "random"]))]
+    argv += ["--samples", data.draw(st.sampled_from(["4", "4", "4", "0", "-2", "x"]))]
+    argv += ["--dtype", data.draw(st.sampled_from(["float32", "float64"])), "--out", str(out)]
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv)
+    assert code in (0, 2), (argv, err.getvalue())
+    OUTCOMES[f"cli truth: exit {code}"] += 1
+    if code == 2:
+        assert len(err.getvalue().strip().splitlines()) == 1, err.getvalue()
+        assert not out.exists()
+    else:
+        ds = af.Dataset.load(out)
+        assert np.isfinite(ds.E).all() and (ds.E >= 0).all()
+
+
 def test_zz_examples_ran(capsys):
     """Every property ran examples (pytest -s shows the counts)."""
     with capsys.disabled():
         print(f"\nfuzz examples: {dict(EXAMPLES)}, total {sum(EXAMPLES.values())}")
         print(f"outcomes: {dict(sorted(OUTCOMES.items()))}")
-    if len(EXAMPLES) == 5:  # the whole file ran (not a -k selection)
+    if len(EXAMPLES) == 6:  # the whole file ran (not a -k selection)
         assert min(EXAMPLES.values()) >= 20
 
 
