@@ -542,7 +542,8 @@ class _Unpacking:
 
 #: Problems per vmapped chunk in `fit_many`: chunks run one after another (`lax.map`), so a
 #: chunk's arrays stay in cache and each chunk stops when its own slowest problem does
-#: (measured on 1,000 polynomial fits: best of 7, 116 ms at 128 against 547 ms unchunked).
+#: (measured on 1,000 polynomial fits, CPU time best of 9 in one run: 104 ms at 64, 116 ms
+#: at 256, 113 ms at 128; one vmap over all 1,000 took 1.7x the CPU time of 128).
 _CHUNK = 64
 
 
