@@ -59,6 +59,20 @@ def _npz(path: Path, header: Any = None, **arrays: Any) -> Path:
     return path
 
 
+def _patch_central(raw: bytes, member: str, offset: int, value: int) -> bytes:
+    """`raw` (a zip) with a 2-byte field of `member`'s central-directory entry OR-ed with `value`."""
+    b = bytearray(raw)
+    i = b.find(b"PK\x01\x02")
+    while i >= 0:
+        n = int.from_bytes(b[i + 28 : i + 30], "little")
+        if bytes(b[i + 46 : i + 46 + n]) == member.encode():
+            field = int.from_bytes(b[i + offset : i + offset + 2], "little") | value
+            b[i + offset : i + offset + 2] = field.to_bytes(2, "little")
+            return bytes(b)
+        i = b.find(b"PK\x01\x02", i + 4)
+    raise AssertionError(f"{member} not in the zip")
+
+
 class Files:
     """Every file the catalogue needs, made once in a temporary folder."""
 
@@ -88,6 +102,11 @@ class Files:
         self.truncated.write_bytes(raw[: len(raw) // 2])
         self.flipped = root / "flipped.npz"  # the zip's central directory scrambled
         self.flipped.write_bytes(raw[:-40] + bytes(b ^ 0xFF for b in raw[-40:]))
+
+        self.encrypted = root / "encrypted.npz"  # the zip says its member is encrypted
+        self.encrypted.write_bytes(_patch_central(raw, "header.npy", 8, 0x01))
+        self.method = root / "method.npz"  # ... or compressed by an unknown method
+        self.method.write_bytes(_patch_central(raw, "header.npy", 10, 99))
 
         header = {
             "format": "attenfit.dataset",
@@ -715,6 +734,18 @@ API_CASES = [
         "truncated.npz' is not a readable attenfit dataset",
     ),
     Case("load-bytes-flipped", lambda f: af.Dataset.load(f.flipped), DataFileError, "flipped.npz'"),
+    Case(
+        "load-encrypted-member",
+        lambda f: af.Dataset.load(f.encrypted),
+        DataFileError,
+        "encrypted.npz' is not a readable attenfit dataset (.npz): RuntimeError",
+    ),
+    Case(
+        "load-unknown-compression",
+        lambda f: af.Dataset.load(f.method),
+        DataFileError,
+        "method.npz' is not a readable attenfit dataset (.npz): NotImplementedError",
+    ),
     Case("load-pickle", lambda f: af.Dataset.load(f.pickled), DataFileError, "pickled.npz'"),
     Case(
         "load-bad-json",

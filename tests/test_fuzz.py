@@ -19,6 +19,7 @@ from __future__ import annotations
 import collections
 import json
 import math
+import os
 import tempfile
 import tomllib
 from pathlib import Path
@@ -35,7 +36,9 @@ from attenfit.scene import Scene
 
 EXAMPLES: collections.Counter = collections.Counter()
 OUTCOMES: collections.Counter = collections.Counter()  # how the examples ended
-FAST = settings(max_examples=40, deadline=None, suppress_health_check=list(HealthCheck))
+#: ATTENFIT_FUZZ_SCALE=10 runs ten times the examples (a longer hunt than the test suite's).
+SCALE = int(os.environ.get("ATTENFIT_FUZZ_SCALE", "1"))
+FAST = settings(max_examples=40 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
 WORK = Path(tempfile.mkdtemp(prefix="attenfit-fuzz-"))
 
 ANY64 = st.floats(allow_nan=True, allow_infinity=True, allow_subnormal=True, width=64)
@@ -338,7 +341,7 @@ BAD = st.sampled_from(["0", "-1", "nan", "inf", "-inf", "1e-30", "1e300", "1e40"
 NUMBERS = st.one_of(GOOD, GOOD, GOOD, BAD)  # mostly valid, so that some runs get far
 
 
-@settings(max_examples=30, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=30 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
 @given(data=st.data())
 def test_cli_truth_on_arbitrary_options(data):
     """`attenfit truth` with arbitrary option values: exit 0 with a valid file, or exit 2."""
@@ -380,7 +383,7 @@ def test_zz_examples_ran(capsys):
         print(f"\nfuzz examples: {dict(EXAMPLES)}, total {sum(EXAMPLES.values())}")
         print(f"outcomes: {dict(sorted(OUTCOMES.items()))}")
     if len(EXAMPLES) == 6:  # the whole file ran (not a -k selection)
-        assert min(EXAMPLES.values()) >= 20
+        assert min(EXAMPLES.values()) >= 20 * SCALE
 
 
 @pytest.fixture(scope="module", autouse=True)
