@@ -198,40 +198,94 @@ def _cost_vs_error(report):
     return fig
 
 
-def draw_all(
-    report, folder: Path, *, dpi: int = 100, svg: bool = True, progress=None
-) -> dict[str, Path]:
-    """Draw every figure of `report` into `folder`; return figure key -> PNG path."""
-    out: dict[str, Path] = {}
-    say = progress or (lambda s: None)
+def figure_jobs(report, *, published_only: bool = False):
+    """(configuration, key, make) for every figure, in report order; `make()` returns a figure
+    or None. With `published_only`, only those that need nothing beyond the published results
+    (what `prerender` can draw while the fits run)."""
+    jobs = []
     for cfg in report.configs:
-        say(f"figures: {cfg.name}")
         if cfg.sweep is not None:
-            for mode in ("published", "fitted"):
+            for mode in ("published",) if published_only else ("published", "fitted"):
                 if not any(report._get(f, cfg.name, mode) for f in report.families):
                     continue
-                _save(
-                    _two_panel(report, cfg, mode, "attenuation"),
-                    folder,
-                    f"{cfg.name}_attenuation_{mode}",
-                    dpi,
-                    svg,
-                    out,
-                )
-                _save(
-                    _two_panel(report, cfg, mode, "error"),
-                    folder,
-                    f"{cfg.name}_error_{mode}",
-                    dpi,
-                    svg,
-                    out,
-                )
+                for kind, name in (("attenuation", "attenuation"), ("error", "error")):
+                    jobs.append(
+                        (
+                            cfg,
+                            f"{cfg.name}_{name}_{mode}",
+                            lambda cfg=cfg, mode=mode, kind=kind: _two_panel(
+                                report, cfg, mode, kind
+                            ),
+                        )
+                    )
         if cfg.plane is not None:
-            _save(_plane_errors(report, cfg), folder, f"{cfg.name}_plane_errors", dpi, svg, out)
-            fig = _side_by_side(report, cfg)
-            if fig is not None:
-                _save(fig, folder, f"{cfg.name}_plane_side_by_side", dpi, svg, out)
-    fig = _cost_vs_error(report)
-    if fig is not None:
-        _save(fig, folder, "cost_vs_error", dpi, svg, out)
+            jobs.append(
+                (cfg, f"{cfg.name}_plane_errors", lambda cfg=cfg: _plane_errors(report, cfg))
+            )
+            jobs.append(
+                (cfg, f"{cfg.name}_plane_side_by_side", lambda cfg=cfg: _side_by_side(report, cfg))
+            )
+    if not published_only:
+        jobs.append((None, "cost_vs_error", lambda: _cost_vs_error(report)))
+    return jobs
+
+
+def prerender(report, *, dpi: int = 100, svg: bool = True) -> dict[str, tuple[bytes, bytes | None]]:
+    """Draw the figures that need only the published results into memory: key -> (PNG, SVG).
+
+    `build_report` runs this in a thread while the fits compile (XLA releases the GIL), so the
+    two cores work at once; `draw_all` then writes these bytes instead of drawing again.
+    """
+    import io
+
+    import matplotlib as mpl
+
+    out: dict[str, tuple[bytes, bytes | None]] = {}
+    for _cfg, key, make in figure_jobs(report, published_only=True):
+        fig = make()
+        if fig is None:
+            continue
+        with mpl.rc_context(plots.STYLE):
+            png = io.BytesIO()
+            fig.savefig(png, dpi=dpi, format="png")
+            svg_bytes = None
+            if svg:
+                buf = io.BytesIO()
+                fig.savefig(buf, format="svg")
+                svg_bytes = buf.getvalue()
+        out[key] = (png.getvalue(), svg_bytes)
+    return out
+
+
+def draw_all(
+    report,
+    folder: Path,
+    *,
+    dpi: int = 100,
+    svg: bool = True,
+    progress=None,
+    prerendered: dict[str, tuple[bytes, bytes | None]] | None = None,
+) -> dict[str, Path]:
+    """Draw every figure of `report` into `folder`; return figure key -> PNG path.
+
+    Figures in `prerendered` (from `prerender`, same dpi and formats) are written, not redrawn.
+    """
+    out: dict[str, Path] = {}
+    say = progress or (lambda s: None)
+    prerendered = prerendered or {}
+    current = None
+    for cfg, key, make in figure_jobs(report):
+        if cfg is not None and cfg is not current:
+            current = cfg
+            say(f"figures: {cfg.name}")
+        if key in prerendered and (prerendered[key][1] is not None or not svg):
+            png, svg_bytes = prerendered[key]
+            (folder / f"{key}.png").write_bytes(png)
+            if svg:
+                (folder / f"{key}.svg").write_bytes(svg_bytes)
+            out[key] = folder / f"{key}.png"
+            continue
+        fig = make()
+        if fig is not None:
+            _save(fig, folder, key, dpi, svg, out)
     return out

@@ -578,6 +578,10 @@ class Report:
     _values: dict[tuple[str, str, str], dict[str, np.ndarray]] = dataclasses.field(
         default_factory=dict, repr=False
     )
+    #: Figures drawn while the fits ran (`_report_figures.prerender`): key -> (PNG, SVG).
+    _prerendered: dict[str, tuple[bytes, bytes | None]] = dataclasses.field(
+        default_factory=dict, repr=False
+    )
 
     # ------------------------------------------------------------------ access
     def result(self, family: str, config: str, mode: str = "published") -> dict[str, Any]:
@@ -1015,7 +1019,10 @@ class Report:
 
         folder = Path(folder)
         folder.mkdir(parents=True, exist_ok=True)
-        return _report_figures.draw_all(self, folder, dpi=dpi, svg=svg, progress=progress)
+        pre = self._prerendered if dpi == 100 else {}
+        return _report_figures.draw_all(
+            self, folder, dpi=dpi, svg=svg, progress=progress, prerendered=pre
+        )
 
 
 # ============================================================================ formatting
@@ -1240,6 +1247,7 @@ def build_report(
                 results.append(_evaluate(cls.name, c, "published", model, note=note, store=values))
         timings["published"] = time.perf_counter() - t
 
+        painter = _start_prerender(classes, configs, results, models, values) if fitted else None
         if fitted:
             t = time.perf_counter()
             sweep_cfgs = [c for c in configs if c.sweep is not None]
@@ -1275,6 +1283,7 @@ def build_report(
             timings["fit"] = time.perf_counter() - t
 
         findings = _findings(classes, configs, results, models)
+    prerendered = painter.result() if painter is not None else {}  # joined before timing costs
     costs: dict[str, Any] = {}
     if cost:
         t = time.perf_counter()
@@ -1298,8 +1307,52 @@ def build_report(
         "backend": jax.default_backend(),
     }
     return Report(
-        [c.name for c in classes], configs, results, findings, costs, meta, models, values
+        [c.name for c in classes],
+        configs,
+        results,
+        findings,
+        costs,
+        meta,
+        models,
+        values,
+        prerendered,
     )
+
+
+class _Painter:
+    """A thread drawing the published figures while the fits run (see `_report_figures.prerender`)."""
+
+    def __init__(self, report: Report):
+        import threading
+
+        self._report = report
+        self._out: dict[str, tuple[bytes, bytes | None]] = {}
+        self._thread = threading.Thread(target=self._run, name="attenfit-figures", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+        from . import _report_figures
+
+        try:
+            self._out = _report_figures.prerender(self._report)
+        except Exception:  # drawn again, in the main thread, by Report.write
+            self._out = {}
+
+    def result(self) -> dict[str, tuple[bytes, bytes | None]]:
+        self._thread.join()
+        return self._out
+
+
+def _start_prerender(classes, configs, results, models, values) -> _Painter | None:
+    """Start drawing the published figures in a thread (None if threads are unavailable)."""
+    published = [r for r in results if r["mode"] == "published"]
+    draft = Report(
+        [c.name for c in classes], configs, published, [], {}, {}, dict(models), dict(values)
+    )
+    try:
+        return _Painter(draft)
+    except RuntimeError:
+        return None
 
 
 def _truth_at(c: _Config) -> Callable[[float], float] | None:

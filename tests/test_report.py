@@ -251,3 +251,17 @@ def test_datasets_become_configurations(tmp_path, capsys):
     assert (out / "figures" / "plane_plane_side_by_side.png").is_file()
     data = json.loads((out / "report.json").read_text())
     assert {c["name"] for c in data["configurations"]} == {"disk", "plane"}
+
+
+def test_published_figures_drawn_during_the_fits_are_the_ones_written(report, tmp_path):
+    # build_report draws the published figures in a thread while the fits compile
+    pre = report._prerendered
+    assert {"disk_attenuation_published", "sphere_plane_errors"} <= set(pre)
+    out = report.write(tmp_path / "rep", svg=False)
+    for key, (png, _svg) in pre.items():
+        assert (out / "figures" / f"{key}.png").read_bytes() == png
+    md = (out / "report.md").read_text()
+    written = sorted(p.stem for p in (out / "figures").glob("*.png"))
+    assert "sphere_attenuation_fitted" in written and "cost_vs_error" not in written  # no costs
+    for key in written:
+        assert f"figures/{key}.png" in md
