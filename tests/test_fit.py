@@ -147,6 +147,18 @@ def test_lm_with_normal_equations_matches_lm_with_qr():
     assert default.steps <= qr.steps + 2
 
 
+def test_singular_jacobian_with_normal_equations():
+    # Two parameters entering only as a sum: J^T J is singular and the damped normal
+    # equations lean on the damping alone. The fit must still land on a + b = 1.5.
+    target = 1 / (1.5 + D * D)
+    res = af.fit(
+        (lambda d, p: 1 / (p["a"] + p["b"] + d * d), {"a": 3.0, "b": 1.0}), D, target, guess=False
+    )
+    assert res.converged, res.message
+    assert abs(res.params["a"] + res.params["b"] - 1.5) < 1e-9
+    assert res.loss < 1e-20
+
+
 def test_gauss_newton_without_damping_fails_visibly_on_a_rational_family():
     # Undamped Gauss-Newton from a far start jumps past the pole of 1/(kc + kl d + kq d^2):
     # the result must say it did not converge (never raise, never claim success wrongly).
