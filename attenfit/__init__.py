@@ -17,7 +17,8 @@ from ._family import get_family as get_family
 from ._family import list_families as list_families
 from ._family import register_family as register_family
 
-# --- families (issue 2) ---
+
+# Families: the attenuation curves and the spotlight directional factors.
 from . import directional as directional
 from . import families as families
 from ._family import family_from_function as family_from_function
@@ -45,7 +46,8 @@ from .families import UnrealExponent as UnrealExponent
 from .families import UnrealWindow as UnrealWindow
 from .families import Yuksel as Yuksel
 from .families import YukselAdhoc as YukselAdhoc
-# --- emitters, irradiance, quadrature, datasets (issue 3) ---
+
+# Ground truth: emitters, exact irradiance, quadrature, datasets.
 from . import quadrature as quadrature
 from ._dataset import Dataset as Dataset
 from ._dataset import facing_sweep as facing_sweep
@@ -57,7 +59,8 @@ from .emitters import CapsuleEmitter as CapsuleEmitter
 from .emitters import DiskEmitter as DiskEmitter
 from .emitters import SphereEmitter as SphereEmitter
 from .emitters import emitter_from_dict as emitter_from_dict
-# --- fitting (issue 5) ---
+
+# Fitting.
 from ._fit import LOSSES as LOSSES
 from ._fit import SOLVERS as SOLVERS
 from ._fit import FitResult as FitResult
@@ -66,20 +69,21 @@ from ._fit import fit as fit
 from ._fit import fit_dataset as fit_dataset
 from ._fit import fit_many as fit_many
 
-# --- metrics and report (issue 6) ---
+# Metrics and the comparison report.
 from . import metrics as metrics
 from . import plots as plots
 from .report import Report as Report
 from .report import build_report as build_report
-# --- cost, scene, export (issue 7) ---
-# scene files and recommendations (issue 7, part 2)
+
+# Scene files and recommendations.
 from . import scene as scene
 from ._recommend import Candidate as Candidate
 from ._recommend import Recommendation as Recommendation
 from ._recommend import recommend as recommend
 from .scene import Scene as Scene
-# `attenfit.export` is the module; its function is `attenfit.export.export` (also
-# `attenfit.export_function`), so that the module stays importable under its name.
+
+# Cost and shader export. `attenfit.export` is the module; its function is
+# `attenfit.export.export`, also available as `attenfit.export_function`.
 from . import cost as cost
 from . import export as export
 from .cost import Cost as Cost
@@ -91,6 +95,6 @@ from .cost import family_cost as family_cost
 from .cost import pareto_front as pareto_front
 from .cost import plot_cost_vs_error as plot_cost_vs_error
 from .cost import shader_cost as shader_cost
-from .export import export as export_function
+from .export import export as export_function  # noqa: F401 (public alias)
 
 __version__ = "0.1.0"
