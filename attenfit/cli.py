@@ -84,37 +84,7 @@ def _add_truth(sub) -> None:
         "sits at the origin, the disk at the origin facing -z, the capsule along x centred on "
         "the origin.",
     )
-    p.add_argument("--emitter", required=True, choices=["sphere", "disk", "capsule"])
-    p.add_argument("--radius", required=True, type=float, help="emitter radius (m)")
-    p.add_argument(
-        "--intensity", type=float, default=1.0, help="point-equivalent intensity I (default 1)"
-    )
-    p.add_argument(
-        "--length", type=float, default=None, help="capsule segment length (default 4 radius)"
-    )
-    p.add_argument("--two-sided", action="store_true", help="two-sided disk")
-    p.add_argument("--receivers", choices=["facing", "plane", "random"], default="facing")
-    p.add_argument(
-        "--range",
-        default=None,
-        metavar="A:B",
-        help="distance range (m) for facing/random receivers (default 1.001 r:1000 r; disk 0.001 r:1000 r)",
-    )
-    p.add_argument(
-        "--height",
-        type=float,
-        default=None,
-        help="plane: depth of the plane below the centre (default r)",
-    )
-    p.add_argument(
-        "--extent", type=float, default=None, help="plane: half-width of the grid (default 10 r)"
-    )
-    p.add_argument(
-        "--samples",
-        type=int,
-        default=None,
-        help="receivers (facing/random, default 256) or grid points per side (plane, default 64)",
-    )
+    _add_configuration_args(p, height_help="plane: depth of the plane below the centre (default r)")
     p.add_argument("--seed", type=int, default=0, help="random receivers' seed (default 0)")
     p.add_argument("--dtype", choices=["float32", "float64"], default="float64")
     p.add_argument("--out", required=True, help="output file, FILE.npz")
@@ -137,70 +107,8 @@ def _parse_range(text: str) -> tuple[float, float]:
     return lo, hi
 
 
-def _run_truth(args: argparse.Namespace) -> int:
-    import math
-
-    from ._atomic import check_output_path
-    from ._errors import BadValueError
-
-    if not args.out.endswith(".npz"):
-        raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
-    for name in ("radius", "intensity", "length", "height", "extent"):
-        v = getattr(args, name)
-        if v is not None and not math.isfinite(v):
-            raise BadValueError(f"--{name} must be finite, got {v}")
-    r = args.radius
-    if not r > 0:
-        raise BadValueError(f"--radius must be > 0, got {r}")
-    if args.samples is not None and args.samples < 1:
-        raise BadValueError(f"--samples must be >= 1, got {args.samples}")
-    check_output_path(args.out, force=args.force)
-    if args.dtype == "float64":
-        import jax
-
-        jax.config.update("jax_enable_x64", True)
-    from ._dataset import facing_sweep, plane_receivers, random_receivers
-    from .emitters import CapsuleEmitter, DiskEmitter, SphereEmitter
-
-    if args.emitter == "sphere":
-        emitter = SphereEmitter([0.0, 0.0, 0.0], r, args.intensity)
-    elif args.emitter == "disk":
-        emitter = DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], r, args.intensity, args.two_sided)
-    else:
-        half = (4 * r if args.length is None else args.length) / 2
-        if half < 0:
-            raise BadValueError(f"--length must be >= 0, got {args.length}")
-        emitter = CapsuleEmitter([-half, 0.0, 0.0], [half, 0.0, 0.0], r, args.intensity)
-    if args.range is None:
-        lo, hi = (1e-3 * r if args.emitter == "disk" else 1.001 * r), 1000 * r
-    else:
-        lo, hi = _parse_range(args.range)
-    if args.receivers == "facing":
-        ds = facing_sweep(emitter, lo, hi, n=args.samples or 256, dtype=args.dtype)
-    elif args.receivers == "random":
-        ds = random_receivers(
-            emitter, args.samples or 256, lo, hi, seed=args.seed, dtype=args.dtype
-        )
-    else:
-        height = r if args.height is None else args.height
-        extent = 10 * r if args.extent is None else args.extent
-        ds = plane_receivers(emitter, height, extent, n=args.samples or 64, dtype=args.dtype)
-    path = ds.save(args.out, force=args.force)
-    print(
-        f"wrote {path}: {len(ds)} {args.receivers} receivers, {args.emitter} r={r:g}, "
-        f"E in [{float(ds.E.min()):.6g}, {float(ds.E.max()):.6g}] W/m^2 ({ds.E.dtype})"
-    )
-    return EXIT_OK
-
-
-def _add_gen(sub) -> None:
-    p = sub.add_parser(
-        "gen",
-        help="render a ground-truth dataset independently with Mitsuba 3",
-        description="Render irradiance with Mitsuba 3 (Monte Carlo, a standard error per "
-        "receiver) at the receivers `attenfit truth` would use for the same options, and write "
-        "it as an attenfit dataset (.npz).",
-    )
+def _add_configuration_args(p, *, height_help: str) -> None:
+    """The emitter and receiver options of `attenfit truth` and `attenfit gen` (one configuration)."""
     p.add_argument("--emitter", required=True, choices=["sphere", "disk", "capsule"])
     p.add_argument("--radius", required=True, type=float, help="emitter radius (m)")
     p.add_argument(
@@ -217,9 +125,7 @@ def _add_gen(sub) -> None:
         metavar="A:B",
         help="distance range (m) for facing/random receivers (default 1.001 r:1000 r; disk 0.001 r:1000 r)",
     )
-    p.add_argument(
-        "--height", type=float, default=None, help="plane: depth below the centre (default r)"
-    )
+    p.add_argument("--height", type=float, default=None, help=height_help)
     p.add_argument(
         "--extent", type=float, default=None, help="plane: half-width of the grid (default 10 r)"
     )
@@ -229,6 +135,84 @@ def _add_gen(sub) -> None:
         default=None,
         help="receivers (facing/random, default 256) or grid points per side (plane, default 64)",
     )
+
+
+def _check_configuration(args: argparse.Namespace) -> None:
+    """Eager checks of the options `_add_configuration_args` declares (before any output check)."""
+    import math
+
+    from ._errors import BadValueError
+
+    for name in ("radius", "intensity", "length", "height", "extent"):
+        v = getattr(args, name)
+        if v is not None and not math.isfinite(v):
+            raise BadValueError(f"--{name} must be finite, got {v}")
+    if not args.radius > 0:
+        raise BadValueError(f"--radius must be > 0, got {args.radius}")
+    if args.samples is not None and args.samples < 1:
+        raise BadValueError(f"--samples must be >= 1, got {args.samples}")
+
+
+def _configuration_dataset(args: argparse.Namespace, dtype: str):
+    """The exact dataset (attenfit.irradiance) of the emitter and receivers the options describe."""
+    from ._errors import BadValueError
+
+    if dtype == "float64":
+        import jax
+
+        jax.config.update("jax_enable_x64", True)
+    from ._dataset import facing_sweep, plane_receivers, random_receivers
+    from .emitters import CapsuleEmitter, DiskEmitter, SphereEmitter
+
+    r = args.radius
+    if args.emitter == "sphere":
+        emitter = SphereEmitter([0.0, 0.0, 0.0], r, args.intensity)
+    elif args.emitter == "disk":
+        emitter = DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], r, args.intensity, args.two_sided)
+    else:
+        half = (4 * r if args.length is None else args.length) / 2
+        if half < 0:
+            raise BadValueError(f"--length must be >= 0, got {args.length}")
+        emitter = CapsuleEmitter([-half, 0.0, 0.0], [half, 0.0, 0.0], r, args.intensity)
+    if args.range is None:
+        lo, hi = (1e-3 * r if args.emitter == "disk" else 1.001 * r), 1000 * r
+    else:
+        lo, hi = _parse_range(args.range)
+    if args.receivers == "facing":
+        return facing_sweep(emitter, lo, hi, n=args.samples or 256, dtype=dtype)
+    if args.receivers == "random":
+        return random_receivers(emitter, args.samples or 256, lo, hi, seed=args.seed, dtype=dtype)
+    height = r if args.height is None else args.height
+    extent = 10 * r if args.extent is None else args.extent
+    return plane_receivers(emitter, height, extent, n=args.samples or 64, dtype=dtype)
+
+
+def _run_truth(args: argparse.Namespace) -> int:
+    from ._atomic import check_output_path
+    from ._errors import BadValueError
+
+    if not args.out.endswith(".npz"):
+        raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
+    _check_configuration(args)
+    check_output_path(args.out, force=args.force)
+    ds = _configuration_dataset(args, args.dtype)
+    path = ds.save(args.out, force=args.force)
+    print(
+        f"wrote {path}: {len(ds)} {args.receivers} receivers, {args.emitter} r={args.radius:g}, "
+        f"E in [{float(ds.E.min()):.6g}, {float(ds.E.max()):.6g}] W/m^2 ({ds.E.dtype})"
+    )
+    return EXIT_OK
+
+
+def _add_gen(sub) -> None:
+    p = sub.add_parser(
+        "gen",
+        help="render a ground-truth dataset independently with Mitsuba 3",
+        description="Render irradiance with Mitsuba 3 (Monte Carlo, a standard error per "
+        "receiver) at the receivers `attenfit truth` would use for the same options, and write "
+        "it as an attenfit dataset (.npz).",
+    )
+    _add_configuration_args(p, height_help="plane: depth below the centre (default r)")
     p.add_argument("--spp", type=int, default=4096, help="Monte Carlo samples per receiver")
     p.add_argument("--seed", type=int, default=0, help="seed of the samples and random receivers")
     p.add_argument(
@@ -251,46 +235,8 @@ def _add_gen(sub) -> None:
 
 def _gen_template(args: argparse.Namespace):
     """The exact dataset whose receivers `attenfit gen` renders: `attenfit truth`'s, float64."""
-    import math
-
-    import jax
-
-    from ._dataset import facing_sweep, plane_receivers, random_receivers
-    from ._errors import BadValueError
-    from .emitters import CapsuleEmitter, DiskEmitter, SphereEmitter
-
-    for name in ("radius", "intensity", "length", "height", "extent"):
-        v = getattr(args, name)
-        if v is not None and not math.isfinite(v):
-            raise BadValueError(f"--{name} must be finite, got {v}")
-    r = args.radius
-    if not r > 0:
-        raise BadValueError(f"--radius must be > 0, got {r}")
-    if args.samples is not None and args.samples < 1:
-        raise BadValueError(f"--samples must be >= 1, got {args.samples}")
-    jax.config.update("jax_enable_x64", True)
-    if args.emitter == "sphere":
-        emitter = SphereEmitter([0.0, 0.0, 0.0], r, args.intensity)
-    elif args.emitter == "disk":
-        emitter = DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], r, args.intensity, args.two_sided)
-    else:
-        half = (4 * r if args.length is None else args.length) / 2
-        if half < 0:
-            raise BadValueError(f"--length must be >= 0, got {args.length}")
-        emitter = CapsuleEmitter([-half, 0.0, 0.0], [half, 0.0, 0.0], r, args.intensity)
-    if args.range is None:
-        lo, hi = (1e-3 * r if args.emitter == "disk" else 1.001 * r), 1000 * r
-    else:
-        lo, hi = _parse_range(args.range)
-    if args.receivers == "facing":
-        return facing_sweep(emitter, lo, hi, n=args.samples or 256, dtype="float64")
-    if args.receivers == "random":
-        return random_receivers(
-            emitter, args.samples or 256, lo, hi, seed=args.seed, dtype="float64"
-        )
-    height = r if args.height is None else args.height
-    extent = 10 * r if args.extent is None else args.extent
-    return plane_receivers(emitter, height, extent, n=args.samples or 64, dtype="float64")
+    _check_configuration(args)
+    return _configuration_dataset(args, "float64")
 
 
 def _gen_progress(label: str):
