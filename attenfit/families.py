@@ -78,6 +78,26 @@ def _jit_call(call):
 Out = Float[Array, "*shape"]
 
 
+def _warped_sphere_range(r: Param, d_max: Param) -> Array:
+    """The centre distance r + d_max where a Madams warped sphere reaches 0 (m)."""
+    r, d_max = parts.promote(r, d_max)
+    return r + d_max
+
+
+def _warped_sphere(warp, d: Float[ArrayLike, "*shape"], r: Param, d_max: Param) -> Out:
+    """Madams' sphere 1/(d' + r)^2 on the surface distance warped by `warp`, 0 beyond d_max.
+
+    `warp(d_s, d_max, gap) -> (d', inside)` is `parts.tan_warp` or `parts.rational_warp`
+    (Madams 2011b, Improved light attenuation); shared by `MadamsTan` and `MadamsRational`.
+    """
+    d, r, d_max = parts.promote(d, r, d_max)
+    d = parts.distance(d)
+    gap = parts.surface_gap(d, r, d_max)
+    warped, inside = warp(parts.surface_distance(d, r), d_max, gap)
+    f = parts.surface_sphere(warped, r)
+    return parts.keep_nan(d, jnp.where(inside, f, jnp.zeros_like(f)))
+
+
 # ----------------------------------------------------------------------------- inverse square
 @register_family
 class InverseSquare(Family):
@@ -353,17 +373,11 @@ class MadamsTan(Family):
 
     def range_distance(self) -> Array:
         """The centre distance r + d_max where the curve reaches 0."""
-        r, d_max = parts.promote(self.r, self.d_max)
-        return r + d_max
+        return _warped_sphere_range(self.r, self.d_max)
 
     @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
-        d, r, d_max = parts.promote(d, self.r, self.d_max)
-        d = parts.distance(d)
-        gap = parts.surface_gap(d, r, d_max)
-        warped, inside = parts.tan_warp(parts.surface_distance(d, r), d_max, gap)
-        f = parts.surface_sphere(warped, r)
-        return parts.keep_nan(d, jnp.where(inside, f, jnp.zeros_like(f)))
+        return _warped_sphere(parts.tan_warp, d, self.r, self.d_max)
 
 
 @register_family
@@ -390,17 +404,11 @@ class MadamsRational(Family):
 
     def range_distance(self) -> Array:
         """The centre distance r + d_max where the curve reaches 0."""
-        r, d_max = parts.promote(self.r, self.d_max)
-        return r + d_max
+        return _warped_sphere_range(self.r, self.d_max)
 
     @_jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
-        d, r, d_max = parts.promote(d, self.r, self.d_max)
-        d = parts.distance(d)
-        gap = parts.surface_gap(d, r, d_max)
-        warped, inside = parts.rational_warp(parts.surface_distance(d, r), d_max, gap)
-        f = parts.surface_sphere(warped, r)
-        return parts.keep_nan(d, jnp.where(inside, f, jnp.zeros_like(f)))
+        return _warped_sphere(parts.rational_warp, d, self.r, self.d_max)
 
 
 # ----------------------------------------------------------------------------- windowed engines
