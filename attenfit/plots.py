@@ -120,6 +120,17 @@ def _legend(ax, where: str) -> None:
         raise BadValueError(f"legend must be 'right', 'below', 'best' or 'none', got {where!r}")
 
 
+def _finish_log_axes(ax, xlabel: str, ylabel: str, title: str | None, legend: str) -> None:
+    """Plain tick labels on both (log or symlog) axes, the axis labels, the title and the legend."""
+    plain_log_ticks(ax.xaxis)
+    plain_log_ticks(ax.yaxis)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    if title:
+        ax.set_title(title)
+    _legend(ax, legend)
+
+
 def plot_attenuation(
     d: ArrayLike,
     curves: Mapping[str, ArrayLike],
@@ -177,13 +188,9 @@ def plot_attenuation(
             )
         ax.set_xscale("log")
         ax.set_yscale("log")
-        plain_log_ticks(ax.xaxis)
-        plain_log_ticks(ax.yaxis)
-        ax.set_xlabel("distance from the light's centre d (m)")
-        ax.set_ylabel("attenuation f(d) (1/m²)")
-        if title:
-            ax.set_title(title)
-        _legend(ax, legend)
+        _finish_log_axes(
+            ax, "distance from the light's centre d (m)", "attenuation f(d) (1/m²)", title, legend
+        )
     return fig, ax
 
 
@@ -221,14 +228,8 @@ def plot_relative_error(
         ax.axhline(0.0, color="black", linewidth=0.8)
         ax.set_xscale("log")
         ax.set_yscale("symlog", linthresh=linthresh, linscale=0.5)
-        plain_log_ticks(ax.xaxis)
-        plain_log_ticks(ax.yaxis)
         ax.set_ylim(*ylim)
-        ax.set_xlabel("distance in light radii d / r")
-        ax.set_ylabel(_ERR_LABEL)
-        if title:
-            ax.set_title(title)
-        _legend(ax, legend)
+        _finish_log_axes(ax, "distance in light radii d / r", _ERR_LABEL, title, legend)
     return fig, ax
 
 
