@@ -45,7 +45,6 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import matplotlib
 import numpy as np
@@ -58,6 +57,7 @@ from ._atomic import atomic_dir
 from ._errors import AttenfitError, BadTypeError
 from ._family import Family, get_family, list_families
 from ._fit import fit, fit_many
+from ._trace import _float32_family
 from .scene import LightTruth, Scene
 
 __all__ = [
@@ -550,20 +550,9 @@ def _fit_group(
     return [(res[k].model, res[k].converged, res[k].message) for k in range(len(datas))]
 
 
-def _to_float32(model: Family) -> Family:
-    def cast(x: Any) -> Any:
-        if isinstance(x, float) or (
-            hasattr(x, "dtype") and np.issubdtype(np.dtype(x.dtype), np.floating)
-        ):
-            return jnp.asarray(x, jnp.float32)
-        return x
-
-    return jax.tree.map(cast, model)
-
-
 def _evaluate(model: Family, x: np.ndarray, float32: bool) -> np.ndarray:
     if float32:
-        return np.asarray(_to_float32(model)(jnp.asarray(x, jnp.float32)), dtype=np.float64)
+        return np.asarray(_float32_family(model)(jnp.asarray(x, jnp.float32)), dtype=np.float64)
     return np.asarray(model(jnp.asarray(x)), dtype=np.float64)
 
 
