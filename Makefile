@@ -12,8 +12,9 @@ $(STAMP): pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
+# An existing report is replaced only when asked: `make report FORCE=1`.
 report: $(STAMP)
-	$(VENV)/bin/attenfit report --force
+	$(VENV)/bin/attenfit report $(if $(FORCE),--force)
 
 test: $(STAMP)
 	$(VENV)/bin/pytest
