@@ -43,7 +43,7 @@ from ._errors import BadTypeError, BadValueError, UnknownNameError
 from ._family import Family
 from ._guess import linear_candidate, scale_candidates
 from ._reparam import to_internal, to_param
-from ._solvers import SOLVERS, make_solver
+from ._solvers import SOLVERS, gram, jacobian_rows, make_solver
 
 __all__ = ["LOSSES", "SOLVERS", "FitResult", "FitResults", "fit", "fit_dataset", "fit_many"]
 
@@ -454,23 +454,20 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
                 at_bound.append(jnp.zeros((), bool))
         final = from_u(u, values)
         pvec = jnp.concatenate([final[p].reshape(-1) for p in free])
-        # model values and their Jacobian in one forward-mode pass (k tangents)
-        f, f_jac = jax.vmap(
-            lambda t: jax.jvp(lambda pv: spec.evaluate(d, split(pv, final)), (pvec,), (t,)),
-            out_axes=(None, -1),
-        )(jnp.eye(pvec.shape[0], dtype=dtype))
-        f, f_jac = f.astype(dtype), f_jac.astype(dtype)
-        r_fin, jac = jax.vmap(
-            lambda col: jax.jvp(lambda fv: of_values(fv, target, weights), (f,), (col,)),
-            in_axes=-1,
-            out_axes=(None, -1),
-        )(f_jac)
+
+        # model values, residuals and their Jacobian rows in one forward-mode pass
+        def model_values(pv):
+            return spec.evaluate(d, split(pv, final)).astype(dtype), None
+
+        f, _, f_rows = jacobian_rows(model_values, pvec)
+        r_fin, dr_df = jax.jvp(lambda fv: of_values(fv, target, weights), (f,), (jnp.ones_like(f),))
+        jtj, jtr = gram([dr_df * row.astype(dtype) for row in f_rows], r_fin)
         # First-order optimality (MINPACK's gtol test, as scipy's least_squares): the
         # cosine between the residual vector and each Jacobian column, ignoring parameters
         # on their bound. optimistix's BFGS, for one, never stops at an exact optimum.
-        col = jnp.sqrt(jnp.sum(jac * jac, axis=0))
+        col = jnp.sqrt(jnp.maximum(jnp.diagonal(jtj), 0))
         rnorm = jnp.sqrt(jnp.sum(r_fin * r_fin))
-        cos = jnp.abs(r_fin @ jac) / jnp.where(col * rnorm > 0, col * rnorm, 1)
+        cos = jnp.abs(jtr) / jnp.where(col * rnorm > 0, col * rnorm, 1)
         cos = jnp.where(jnp.stack(at_bound), 0, cos)
         grad_ok = jnp.all(jnp.isfinite(cos)) & (jnp.max(cos, initial=0) <= rtol)
         # ...or residuals at rounding level (an exact fit: the cosine is then noise)
@@ -487,7 +484,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             start_finite=start_finite,
             start_loss=start_loss,
             loss=best,
-            jtj=jac.T @ jac,
+            jtj=jtj,
             max_rel=jnp.max(rel),
             rms_rel=jnp.sqrt(jnp.sum(rel * rel) / npos),
             at_bound=jnp.stack(at_bound),
