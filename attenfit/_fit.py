@@ -28,6 +28,7 @@ How (DESIGN.md section 4):
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -42,8 +43,8 @@ from jaxtyping import Array, ArrayLike, Float
 from ._errors import BadTypeError, BadValueError, UnknownNameError
 from ._family import Family
 from ._guess import linear_candidate, scale_candidates
-from ._reparam import to_internal, to_param
-from ._solvers import SOLVERS, gram, jacobian_rows, make_solver
+from ._reparam import param_slope, to_internal, to_param
+from ._solvers import SOLVERS, LevenbergMarquardt, gram, jacobian_rows, make_solver
 
 __all__ = ["LOSSES", "SOLVERS", "FitResult", "FitResults", "fit", "fit_dataset", "fit_many"]
 
@@ -78,15 +79,27 @@ class _Spec:
 
 def _family_spec(model: Family, batched: bool) -> tuple[_Spec, dict[str, np.ndarray]]:
     cls = type(model)
-    names = cls.param_names()
-    values = {n: np.asarray(getattr(model, n)) for n in names}
+    treedef = jax.tree_util.tree_structure(model)
+    spec = _FAMILY_SPECS.get((cls, treedef))
+    if spec is None:
+        spec = _FAMILY_SPECS[cls, treedef] = _new_family_spec(model, treedef)
+    values = {n: np.asarray(getattr(model, n)) for n in spec.names}
     for n, v in values.items():
-        if not (np.issubdtype(v.dtype, np.floating) or np.issubdtype(v.dtype, np.integer)):
+        if v.dtype.kind not in "fiu":
             raise BadTypeError(
                 f"parameter {n!r} of {cls.name!r} must be a real number, got dtype {v.dtype}"
             )
-    shapes = ()  # set by _prepare, which knows the batch size
-    treedef = jax.tree_util.tree_structure(model)
+    return spec, values
+
+
+#: The static structure of each (family class, pytree structure) seen, built once: a
+#: repeated `fit` of the same kind of model skips the class introspection.
+_FAMILY_SPECS: dict[Any, _Spec] = {}
+
+
+def _new_family_spec(model: Family, treedef: Any) -> _Spec:
+    cls = type(model)
+    names = cls.param_names()
     template = model
 
     def evaluate(d, params):
@@ -98,17 +111,16 @@ def _family_spec(model: Family, batched: bool) -> tuple[_Spec, dict[str, np.ndar
         )
         return m(d)
 
-    spec = _Spec(
+    return _Spec(
         key=(cls, treedef),
         evaluate=evaluate,
         names=names,
         kinds=tuple(cls.constraint(n) for n in names),
-        shapes=shapes,
+        shapes=(),  # set by _prepare, which knows the batch size
         family=getattr(cls, "name", None),
         length_params=tuple(getattr(cls, "length_params", ())),
         leaves_are_params=_leaves_are_params(model, names),
     )
-    return spec, values
 
 
 _LEAVES_ARE_PARAMS: dict[Any, bool] = {}
@@ -231,17 +243,20 @@ def _validate_data(
         raise BadValueError(
             f"d has shape {d.shape} but target has shape {target.shape}; they must match"
         )
-    if not np.all(np.isfinite(d)) or np.any(d < 0):
+    # the common case in two reductions per array (NaN fails every comparison); the
+    # messages below find the offending value
+    if not (d.min() >= 0 and d.max() < math.inf):
         bad = d[~(np.isfinite(d) & (d >= 0))].flat[0].item()
         raise BadValueError(f"d must be finite distances >= 0, got {bad!r}")
-    if not np.all(np.isfinite(target)):
+    t_lo, t_hi = target.min(), target.max()
+    if not (-math.inf < t_lo and t_hi < math.inf):
         raise BadValueError(
             f"target must be finite, got {target[~np.isfinite(target)].flat[0].item()!r}"
         )
     if loss == "absolute":
-        if np.any(target < 0):
+        if t_lo < 0:
             raise BadValueError(f"target must be >= 0, got {target[target < 0].flat[0].item()!r}")
-    elif np.any(target <= 0):
+    elif t_lo <= 0:
         raise BadValueError(
             f"target must be > 0 for the {loss!r} loss, got {target[target <= 0].flat[0].item()!r} "
             "(use loss='absolute' for zero targets)"
@@ -252,7 +267,7 @@ def _validate_data(
             raise BadValueError(
                 f"weights has shape {weights.shape} but target has shape {target.shape}; they must match"
             )
-        if not np.all(np.isfinite(weights)) or np.any(weights < 0):
+        if not (weights.min() >= 0 and weights.max() < math.inf):
             bad = weights[~(np.isfinite(weights) & (weights >= 0))].flat[0].item()
             raise BadValueError(f"weights must be finite and >= 0, got {bad!r}")
         if not np.all(np.any(weights > 0, axis=-1)):
@@ -301,15 +316,11 @@ def _validate_options(
         raise BadValueError(f"{n} samples cannot determine {k} free parameter values")
     for name, kind in zip(spec.names, spec.kinds, strict=True):
         v = values[name]
-        if not np.all(np.isfinite(v)):
+        lo, hi = (float(v), float(v)) if v.ndim == 0 else (float(v.min()), float(v.max()))
+        if not (math.isfinite(lo) and math.isfinite(hi)):
             raise BadValueError(f"start value of {name!r} is not finite: {v!r}")
-        ok = {
-            "positive": v >= 0,
-            "nonnegative": v >= 0,
-            "unit": (v >= 0) & (v <= 1),
-            "real": np.ones_like(v, bool),
-        }[kind]
-        if not np.all(ok):
+        if not (kind == "real" or (lo >= 0 and (kind != "unit" or hi <= 1))):
+            ok = (v >= 0) & (v <= 1) if kind == "unit" else v >= 0
             raise BadValueError(
                 f"start value of {name!r} must be {_CONSTRAINT_WORDS[kind]}, got {v[~ok].flat[0].item()!r}"
             )
@@ -359,8 +370,8 @@ def _residual_fn(spec: _Spec, loss: str):
     return residual
 
 
-def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, atol):
-    """The single-problem solve: arrays in, arrays out (vmappable)."""
+def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched):
+    """The single-problem solve: arrays in, arrays out (`batched`: to be vmapped)."""
     residual = _residual_fn(spec, loss)
     of_values = _residual_of_values(loss)
     index = {n: i for i, n in enumerate(spec.names)}
@@ -404,7 +415,9 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         cands = [values]
         if guess:
             cands += scale_candidates(values, free_lengths)
-            lin = linear_candidate(spec.family or "", values, free, kinds, d, target, weights, loss)
+            lin = linear_candidate(
+                spec.family or "", values, free, kinds, d, target, weights, loss, batched
+            )
             if lin is not None:
                 cands.append(lin)
         if len(cands) > 1:
@@ -431,7 +444,10 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             res_z, solver_obj, u0 / scale, None, max_steps=max_steps, throw=False
         )
         u = sol.value * scale
-        best = cost(u)
+        # attenfit's LM ends with the loss and normal equations of its last point in its
+        # state: no second evaluation of the Jacobian (a full pass over the samples)
+        lm_state = sol.state if isinstance(solver_obj, LevenbergMarquardt) else None
+        best = cost(u) if lm_state is None else lm_state.loss
         # Snap nonnegative parameters to their bound where 0 fits at least as well.
         at_bound = []
         for j, kind in enumerate(flat_kinds):
@@ -455,13 +471,25 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         final = from_u(u, values)
         pvec = jnp.concatenate([final[p].reshape(-1) for p in free])
 
-        # model values, residuals and their Jacobian rows in one forward-mode pass
         def model_values(pv):
             return spec.evaluate(d, split(pv, final)).astype(dtype), None
 
-        f, _, f_rows = jacobian_rows(model_values, pvec)
-        r_fin, dr_df = jax.jvp(lambda fv: of_values(fv, target, weights), (f,), (jnp.ones_like(f),))
-        jtj, jtr = gram([dr_df * row.astype(dtype) for row in f_rows], r_fin)
+        if lm_state is None:
+            # model values, residuals and their Jacobian rows in one forward-mode pass
+            f, _, f_rows = jacobian_rows(model_values, pvec)
+            r_fin, dr_df = jax.jvp(
+                lambda fv: of_values(fv, target, weights), (f,), (jnp.ones_like(f),)
+            )
+            jtj, jtr = gram([dr_df * row.astype(dtype) for row in f_rows], r_fin, batched)
+        else:
+            # J with respect to the parameters is J_z diag(dz/dp), z = u / scale
+            f = model_values(pvec)[0]
+            r_fin = of_values(f, target, weights)
+            slope = scale * jnp.concatenate(
+                [param_slope(kinds[p], u[offsets[i] : offsets[i + 1]]) for i, p in enumerate(free)]
+            )
+            jtj = lm_state.jtj / (slope[:, None] * slope[None, :])
+            jtr = lm_state.jtr / slope
         # First-order optimality (MINPACK's gtol test, as scipy's least_squares): the
         # cosine between the residual vector and each Jacobian column, ignoring parameters
         # on their bound. optimistix's BFGS, for one, never stops at an exact optimum.
@@ -537,11 +565,13 @@ class _Unpacking:
         return out
 
 
-#: Problems per vmapped chunk in `fit_many`: chunks run one after another (`lax.map`), so a
-#: chunk's arrays stay in cache and each chunk stops when its own slowest problem does
-#: (measured on 1,000 polynomial fits, CPU time best of 9 in one run: 104 ms at 64, 116 ms
-#: at 256, 113 ms at 128; one vmap over all 1,000 took 1.7x the CPU time of 128).
-_CHUNK = 64
+#: Problems per vmapped chunk in `fit_many`: chunks run one after another (`lax.map`), and
+#: each stops when its own slowest problem does, so one straggler holds up its chunk only.
+#: Every operation of a step has a fixed cost per chunk, so small chunks pay it many times:
+#: 1,000 polynomial fits (4 steps each), median wall time: 26.5 ms in chunks of 64, 24.2 ms
+#: of 128, 24.1 ms of 256, 25.9 ms of 512 (two chunks), 19.6 ms in one. (With optimistix's
+#: own Gauss-Newton state, 64 was best: its steps cost four times more per problem.)
+_CHUNK = 1024
 
 
 def _chunked(vfn: Callable, chunk: int) -> Callable:
@@ -567,6 +597,17 @@ def _chunked(vfn: Callable, chunk: int) -> Callable:
 _COMPILED: dict[Any, Callable] = {}
 
 
+def _unflatten_inputs(spec: _Spec, flat: Array) -> tuple[dict[str, Array], Array, Array, Array]:
+    """Start values, d, target and weights from `fit`'s one input vector (their concatenation)."""
+    values, off = {}, 0
+    for name, shape in zip(spec.names, spec.shapes, strict=True):
+        size = math.prod(shape)
+        values[name] = flat[off : off + size].reshape(shape)
+        off += size
+    n = (flat.shape[0] - off) // 3
+    return values, flat[off : off + n], flat[off + n : off + 2 * n], flat[off + 2 * n :]
+
+
 def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype):
     """The jitted solve for this configuration, from the cache (jit re-specialises on shapes)."""
     key = (
@@ -586,17 +627,22 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, d
     fn = _COMPILED.get(key)
     if fn is None:
         solver_obj = (
-            make_solver(solver, rtol, atol, float(np.finfo(dtype).eps))
+            make_solver(solver, rtol, atol, float(np.finfo(dtype).eps), batched)
             if isinstance(solver, str)
             else solver
         )
-        problem = _build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol)
+        problem = _build_problem(
+            spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched
+        )
         k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
 
         def packed(*args):
             return _pack(problem(*args), k)
 
-        fn = jax.jit(_chunked(jax.vmap(packed), _CHUNK) if batched else packed)
+        if batched:
+            fn = jax.jit(_chunked(jax.vmap(packed), _CHUNK))
+        else:
+            fn = jax.jit(lambda flat: packed(*_unflatten_inputs(spec, flat)))
         fn = _Unpacking(fn, k)
         _COMPILED[key] = fn
     return fn
@@ -668,9 +714,12 @@ class FitResult:
         loss: `0.5 * sum(residual^2)` at the solution.
         metrics: `max_rel_error`, `rms_rel_error` (unweighted |f - t| / t over the fitted
             samples with t > 0), `start_loss`, `n` (samples), `k` (free values).
-        covariance: `(k, k)` covariance of the free parameters, in `free` order (curve_fit's).
+        covariance: `(k, k)` covariance of the free parameters, in `free` order (curve_fit's),
+            computed on first use from `normal_matrix`.
         free: the fitted parameter names. at_bound: those that ended on a bound.
         objective: the loss kind; solver: its name; dtype: the float dtype of the fit.
+        normal_matrix: `J^T J`, J the Jacobian of the residuals with respect to the free
+            parameters at the solution.
     """
 
     model: Any
@@ -680,12 +729,18 @@ class FitResult:
     steps: int
     loss: float
     metrics: dict[str, float]
-    covariance: np.ndarray
     free: tuple[str, ...]
     at_bound: tuple[str, ...] = ()
     objective: str = "relative"
     solver: str = "levenberg_marquardt"
     dtype: str = "float64"
+    normal_matrix: np.ndarray = dataclasses.field(default=None, repr=False)  # type: ignore[assignment]
+
+    @functools.cached_property
+    def covariance(self) -> np.ndarray:
+        """`(k, k)` covariance of the free parameters (`scipy.optimize.curve_fit`'s)."""
+        k = len(self.normal_matrix)
+        return _covariance(self.normal_matrix, self.loss, int(self.metrics["n"]), k)
 
     @property
     def stderr(self) -> dict[str, float]:
@@ -820,7 +875,6 @@ def _make_result(
         "n": n,
         "k": k,
     }
-    cov = _covariance(pick(out["jtj"]), loss, n, k)
     if isinstance(template, Family):
         model = _rebuild(spec, template, [_field_value(fitted[nm], dtype) for nm in spec.names])
     else:
@@ -833,7 +887,7 @@ def _make_result(
         steps=int(pick(out["steps"])),
         loss=loss,
         metrics=metrics,
-        covariance=cov,
+        normal_matrix=np.asarray(pick(out["jtj"])),
         free=free,
         at_bound=at_bound,
         objective=loss_kind,
@@ -917,11 +971,12 @@ def fit(
     spec, values, free, d, target, weights, dtype, rtol, atol = _prepare(
         model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched=False
     )
-    w = np.ones_like(target, dtype=dtype) if weights is None else weights.astype(dtype)
     fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), False, dtype)
-    # numpy in: jit's C++ fast path transfers them (jnp.asarray per array costs ~0.1 ms each)
-    nvalues = {k: np.asarray(v, dtype) for k, v in values.items()}
-    out = fn(nvalues, np.asarray(d, dtype), np.asarray(target, dtype), np.asarray(w, dtype))
+    # one numpy vector in (start values, d, target, weights): one host-to-device transfer
+    w = np.ones_like(target) if weights is None else weights
+    out = fn(
+        np.concatenate([*(np.ravel(values[k]) for k in spec.names), d, target, w], dtype=dtype)
+    )
     return _make_result(
         spec, model, values, free, out, None, target.shape[-1], loss, _solver_name(solver), dtype
     )

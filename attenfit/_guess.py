@@ -62,6 +62,7 @@ def linear_candidate(
     target: Float[Array, " n"],
     weights: Float[Array, " n"],
     loss: str,
+    batched: bool = False,
 ) -> dict[str, Array] | None:
     """The reweighted linear least-squares start of an inverse-linear family, or None.
 
@@ -86,7 +87,7 @@ def linear_candidate(
     power = 2 if loss == "absolute" else 1
     scale = target**power * weights
     rows = [basis[p](d).astype(dtype) * scale for p in solve_for]
-    ata, atb = gram(rows, rhs * scale)
+    ata, atb = gram(rows, rhs * scale, batched)
     # Jacobi scaling (unit columns): the system's condition is that of the basis' shapes
     norms = jnp.sqrt(jnp.diagonal(ata))
     norms = jnp.where(norms > 0, norms, 1)

@@ -28,7 +28,7 @@ import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-__all__ = ["to_internal", "to_param"]
+__all__ = ["param_slope", "to_internal", "to_param"]
 
 
 def to_param(kind: str, u: Float[Array, "*s"]) -> Float[Array, "*s"]:
@@ -40,6 +40,18 @@ def to_param(kind: str, u: Float[Array, "*s"]) -> Float[Array, "*s"]:
     if kind == "unit":
         return jax.nn.sigmoid(u)
     return u
+
+
+def param_slope(kind: str, u: Float[Array, "*s"]) -> Float[Array, "*s"]:
+    """`d to_param(kind, u) / du`, the slope of the map at `u` (+1 at 0 for the reflection)."""
+    if kind == "positive":
+        return jnp.exp(u)
+    if kind == "nonnegative":
+        return jnp.where(u >= 0, 1, -1).astype(u.dtype)
+    if kind == "unit":
+        q = jax.nn.sigmoid(u)
+        return q * (1 - q)
+    return jnp.ones_like(u)
 
 
 def to_internal(kind: str, p: Float[ArrayLike, "*s"]) -> Float[Array, "*s"]:

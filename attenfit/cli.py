@@ -342,7 +342,7 @@ def _add_fit(sub) -> None:
     p.add_argument(
         "--solver",
         default="levenberg_marquardt",
-        help="levenberg_marquardt (default), dogleg, gauss_newton or bfgs",
+        help="levenberg_marquardt (default), dogleg, gauss_newton, bfgs or optimistix_lm",
     )
     p.add_argument(
         "--free",
