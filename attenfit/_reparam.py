@@ -10,9 +10,9 @@ family at `p = to_param(kind, u)`, with `kind` the parameter's declared constrai
   ``"nonnegative"``.
 - ``"nonnegative"``: the reflection `p = |u|` (with slope +1 at `u = 0`). It reaches the
   edge: when the data want `p <= 0`, the residual is piecewise linear in `u` on either side
-  of 0, so Gauss-Newton lands on `p = 0` in one step for a zero-residual optimum, and a
-  trust region closes in on it otherwise. A log or softplus map cannot do this (the optimum
-  is at `u -> -inf` and a fit runs out of steps); a squared map `p = u^2` has a zero
+  of 0, so Gauss-Newton lands on `p = 0` in one step for a zero-residual optimum, and
+  damped (Levenberg-Marquardt) steps close in on it otherwise. A log or softplus map cannot
+  do this (the optimum is at `u -> -inf` and a fit runs out of steps); a squared map `p = u^2` has a zero
   Jacobian at the edge, so Gauss-Newton steps only halve `u` each time. This is the
   reflective treatment of bounds, as in Coleman and Li's trust-region-reflective method
   (scipy's ``least_squares(method="trf")``).

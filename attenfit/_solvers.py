@@ -152,11 +152,17 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     and Jacobian once, at the trial point. The step is accepted when the loss drops by at
     least 1e-4 of the predicted reduction, or when the predicted reduction is below
     rounding noise (`noise` x loss) and the loss did not rise (the solve has settled);
-    `lam` follows Nielsen's update. The solve stops on an accepted step that is small in
-    `y` (each |delta_i| < atol + rtol |y_i|) and in the residuals (|J delta| < atol sqrt(n)
-    + rtol |r|), or at a first-order optimum (MINPACK's gtol test with gtol = rtol); it
-    stops with `nonlinear_divergence` when the damping has grown past 1/eps^2 (no step
-    can reduce the loss), and `nonfinite` when the start's residuals are not finite.
+    `lam` follows Nielsen's update (H. B. Nielsen, "Damping parameter in Marquardt's method",
+    IMM-REP-1999-05: `lam *= max(1/3, 1 - (2 rho - 1)^3)` on acceptance, `lam *= nu, nu *= 2`
+    on rejection), except that it may fall 10x per step, not 3x (a far start measured 23
+    steps against 26, and one from the data-derived start the same 4). The solve
+    stops on an accepted step that is small in `y` (each |delta_i| < atol + rtol |y_i|) and
+    in the residuals (|J delta| < atol sqrt(n) + rtol |r|; optimistix's Cauchy test), or
+    whose actual and predicted relative reductions of the loss are both at most rtol
+    (MINPACK's ftol test, as scipy's `least_squares`), or at a first-order optimum
+    (MINPACK's gtol test with gtol = rtol); it stops with `nonlinear_divergence` when the
+    damping has grown past 1/eps^2 (no step can reduce the loss), and with `nonfinite`
+    when the start's residuals are not finite.
     """
 
     rtol: float
