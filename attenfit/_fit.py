@@ -597,21 +597,30 @@ def _chunked(vfn: Callable, chunk: int) -> Callable:
 _COMPILED: dict[Any, Callable] = {}
 
 
-def _unflatten_inputs(spec: _Spec, flat: Array) -> tuple[dict[str, Array], Array, Array, Array]:
-    """Start values, d, target and weights from `fit`'s one input vector (their concatenation)."""
+def _unflatten_inputs(
+    spec: _Spec, flat: Array, weighted: bool
+) -> tuple[dict[str, Array], Array, Array, Array]:
+    """Start values, d, target and weights from `fit`'s one input vector (their concatenation;
+    without weights when not `weighted`: they are all 1 then)."""
     values, off = {}, 0
     for name, shape in zip(spec.names, spec.shapes, strict=True):
         size = math.prod(shape)
         values[name] = flat[off : off + size].reshape(shape)
         off += size
-    n = (flat.shape[0] - off) // 3
-    return values, flat[off : off + n], flat[off + n : off + 2 * n], flat[off + 2 * n :]
+    n = (flat.shape[0] - off) // (3 if weighted else 2)
+    d, target = flat[off : off + n], flat[off + n : off + 2 * n]
+    return values, d, target, flat[off + 2 * n :] if weighted else jnp.ones_like(target)
 
 
-def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype):
-    """The jitted solve for this configuration, from the cache (jit re-specialises on shapes)."""
+def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype, weighted):
+    """The jitted solve for this configuration, from the cache (jit re-specialises on shapes).
+
+    Called as `fn(flat)` for one problem (`_unflatten_inputs`), and as `fn(values, d,
+    target, weights)` (or without `weights` when not `weighted`) for a batch.
+    """
     key = (
-        str(np.dtype(dtype)),
+        dtype,
+        weighted,
         spec.key,
         spec.names,
         spec.shapes,
@@ -636,13 +645,14 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, d
         )
         k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
 
-        def packed(*args):
-            return _pack(problem(*args), k)
+        def packed(values, d, target, weights=None):
+            weights = jnp.ones_like(target) if weights is None else weights
+            return _pack(problem(values, d, target, weights), k)
 
         if batched:
             fn = jax.jit(_chunked(jax.vmap(packed), _CHUNK))
         else:
-            fn = jax.jit(lambda flat: packed(*_unflatten_inputs(spec, flat)))
+            fn = jax.jit(lambda flat: packed(*_unflatten_inputs(spec, flat, weighted)))
         fn = _Unpacking(fn, k)
         _COMPILED[key] = fn
     return fn
@@ -892,7 +902,7 @@ def _make_result(
         at_bound=at_bound,
         objective=loss_kind,
         solver=solver_name,
-        dtype=str(np.dtype(dtype)),
+        dtype=np.dtype(dtype).name,
     )
 
 
@@ -900,18 +910,22 @@ def _solver_name(solver) -> str:
     return solver if isinstance(solver, str) else type(solver).__name__
 
 
+_SHAPED_SPECS: dict[Any, _Spec] = {}  # (spec, parameter shapes) -> the spec with those shapes
+
+
 def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched):
     ndim = 2 if batched else 1
     d, target, weights = _validate_data(d, target, weights, loss, ndim)
     spec, values = _spec_of(model, batched)
     batch = target.shape[0] if batched else None
-    spec = dataclasses.replace(
-        spec,
-        shapes=tuple(
-            v.shape[1:] if batched and v.ndim >= 1 and v.shape[0] == batch else v.shape
-            for v in (values[nm] for nm in spec.names)
-        ),
+    shapes = tuple(
+        v.shape[1:] if batched and v.ndim >= 1 and v.shape[0] == batch else v.shape
+        for v in (values[nm] for nm in spec.names)
     )
+    shaped = _SHAPED_SPECS.get((spec, shapes))
+    if shaped is None:
+        shaped = _SHAPED_SPECS[spec, shapes] = dataclasses.replace(spec, shapes=shapes)
+    spec = shaped
     if batched:
         values = {
             nm: np.broadcast_to(values[nm], (batch, *shape))
@@ -971,11 +985,13 @@ def fit(
     spec, values, free, d, target, weights, dtype, rtol, atol = _prepare(
         model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched=False
     )
-    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), False, dtype)
+    w = () if weights is None else (weights,)
+    fn = _compiled(
+        spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), False, dtype, bool(w)
+    )
     # one numpy vector in (start values, d, target, weights): one host-to-device transfer
-    w = np.ones_like(target) if weights is None else weights
     out = fn(
-        np.concatenate([*(np.ravel(values[k]) for k in spec.names), d, target, w], dtype=dtype)
+        np.concatenate([*(np.ravel(values[k]) for k in spec.names), d, target, *w], dtype=dtype)
     )
     return _make_result(
         spec, model, values, free, out, None, target.shape[-1], loss, _solver_name(solver), dtype
@@ -1057,15 +1073,12 @@ def fit_many(
     batch, n = target.shape
     bvalues = values
     d = np.broadcast_to(d, (batch, n))
-    w = np.ones((batch, n), dtype) if weights is None else np.broadcast_to(weights, (batch, n))
-    fn = _compiled(spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), True, dtype)
-    nvalues = {k: np.ascontiguousarray(v, dtype) for k, v in bvalues.items()}
-    out = fn(
-        nvalues,
-        np.ascontiguousarray(d, dtype),
-        np.ascontiguousarray(target, dtype),
-        np.ascontiguousarray(w, dtype),
+    w = () if weights is None else (np.broadcast_to(weights, (batch, n)),)
+    fn = _compiled(
+        spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), True, dtype, bool(w)
     )
+    nvalues = {k: np.ascontiguousarray(v, dtype) for k, v in bvalues.items()}
+    out = fn(nvalues, *(np.ascontiguousarray(a, dtype) for a in (d, target, *w)))
     return FitResults(spec, model, bvalues, free, out, n, loss, _solver_name(solver), dtype)
 
 

@@ -93,7 +93,8 @@ def linear_candidate(
     norms = jnp.where(norms > 0, norms, 1)
     ata = ata / (norms[:, None] * norms[None, :])
     eye = jnp.eye(len(solve_for), dtype=dtype)
-    coef = spd_solve(ata + eye * (jnp.finfo(dtype).eps * len(solve_for)), atb / norms) / norms
+    a = ata + eye * (jnp.finfo(dtype).eps * len(solve_for))
+    coef = spd_solve(a, atb / norms) / norms
     cand = dict(start)
     for i, p in enumerate(solve_for):
         c = coef[i]
