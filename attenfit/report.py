@@ -1464,6 +1464,9 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
                 continue
             models[(cls.name, c.name, "fitted")] = model
             note = f"free: {', '.join(info['free']) or 'none'}"
+            moved = _moved(info, start_of(cls, c))
+            if moved:  # converged where the loss reached rounding level, the optimum at a limit
+                note += f"; {'; '.join(moved)}: no finite optimum"
             results.append(
                 _evaluate(
                     cls.name, c, "fitted", model, note=note, fit=info, store=values, range_=rg
@@ -1471,8 +1474,8 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
             )
 
 
-def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
-    """Why a fit did not converge, in words: a parameter running off to a bound says so."""
+def _moved(info: Mapping[str, Any], start: Mapping[str, Any]) -> list[str]:
+    """The positive scalar parameters a fit drove towards 0 or infinity, in words."""
     moved = []
     for k, v in (info.get("last_params") or {}).items():
         s0 = start.get(k)
@@ -1482,6 +1485,12 @@ def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
             moved.append(f"{k} heads to 0 ({k} = {float(v):.2g})")
         elif float(v) > 30 * float(s0):
             moved.append(f"{k} heads to infinity ({k} = {float(v):.3g})")
+    return moved
+
+
+def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
+    """Why a fit did not converge, in words: a parameter running off to a bound says so."""
+    moved = _moved(info, start)
     if moved:
         return (
             f"no finite optimum: {'; '.join(moved)} after {info.get('steps')} steps, "

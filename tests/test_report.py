@@ -196,8 +196,9 @@ def test_failed_fits_are_marked_not_presented(report):
         assert row["status"].startswith("fit did not converge: no finite optimum: r heads to 0")
         assert row["sweep"] is None and row["params"] is None
         assert "fit failed" in report.summary_markdown()
-    else:  # a converged fit must then be (nearly) inverse-square
+    else:  # a converged fit must then be (nearly) inverse-square, and say r ran to 0
         assert row["params"]["r"] < 1e-3 * R
+        assert "r heads to 0" in row["note"] and "no finite optimum" in row["note"]
 
 
 def test_plots_return_fig_and_ax():
