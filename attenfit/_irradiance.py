@@ -194,6 +194,7 @@ def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) 
     Q = jnp.where(qneg, 4 * st2 * zt * zt / jnp.where(qneg, S - q0, 1.0), S + q0)
     ndperp = _dot(n, dperp) / lam
     E_un = (I / lam) / lam * (Q * (-nm) + 2 * zt * ndperp) / (S * (S + 1))
+    E_un = jnp.maximum(E_un, 0.0)  # rounding below 0 when the disk lies in the horizon plane
 
     # --- clipped: arc + chord contour (groundtruth.md 3.6), E = -(L/2) (J_arc + J_chord)
     u, v = _frame(m)
@@ -232,7 +233,13 @@ def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) 
     dI0 = I0(psi2) - I0(psi1)
     dIc = (2 * beta - dI0) / rhos
     dcos = -2 * jnp.sin(psim) * jnp.sin(beta)  # cos(psi2) - cos(psi1)
-    dIs = -jnp.log1p(rhos * dcos / (1 + rhos * jnp.cos(psi1))) / rhos
+    # log((1 + rho cos psi2) / (1 + rho cos psi1)), each factor written as (1 - rho) +
+    # 2 rho cos^2(psi / 2): no cancellation where an end of the arc is the rim point nearest
+    # the receiver (psi = pi, rho -> 1), which made a factor 0 (and E inf) in float32
+    d1 = am + 2 * rhos * jnp.cos(psi1 / 2) ** 2
+    d2 = am + 2 * rhos * jnp.cos(psi2 / 2) ** 2
+    log_ratio = jnp.where(d2 < 0.5 * d1, jnp.log(d2 / d1), jnp.log1p(rhos * dcos / d1))
+    dIs = -log_ratio / rhos
     J_an = A0 * dI0 + P * dIc + Qs * dIs
     # quadrature branch (rho small: the integrand is nearly a trigonometric polynomial)
     xg, wg = _gauss_legendre(_ARC_NODES, dt)

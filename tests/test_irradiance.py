@@ -546,6 +546,21 @@ def test_float32_in_float32_out_and_close_to_float64():
         np.testing.assert_allclose(np.asarray(E32) * d**2, E64 * d**2, atol=2e-5)
 
 
+def test_disk_arc_ending_at_the_nearest_rim_point_float32():
+    # Found by the fuzz test: a disk seen nearly edge-on from 1e-4 r outside its rim, the
+    # receiver's horizon through the disk's centre, so that one end of the clipped arc is the
+    # rim point nearest the receiver. In float32 1 + rho cos(psi) rounded to 0 there (E = inf),
+    # and the unclipped form rounded below 0 for the normal along the axis.
+    axis = np.array([1.0, 5.73650695e-11, 5.73650695e-11])
+    em = af.DiskEmitter([0.0, 0.0, 0.0], axis / np.linalg.norm(axis), 1.0, two_sided=True)
+    p = np.array([[0.0, 0.0, 1.0001]] * 3)
+    n = np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
+    E32 = np.asarray(af.irradiance(em, p.astype(np.float32), n.astype(np.float32)))
+    E64 = ev(em, p, n)
+    assert np.all(np.isfinite(E32)) and np.all(E32 >= 0) and np.all(E64 >= 0), (E32, E64)
+    np.testing.assert_allclose(E32, E64, atol=2e-5)  # in units of 1/d^2 (d = 1.0001)
+
+
 def test_shapes_broadcast_and_vmap_over_emitters():
     s = af.SphereEmitter([0.0, 0.0, 0.0], 1.0)
     p = np.zeros((2, 3, 3)) + np.array([0.0, 0.0, 3.0])
