@@ -44,7 +44,14 @@ from ._errors import BadTypeError, BadValueError, UnknownNameError
 from ._family import Family
 from ._guess import linear_candidate, scale_candidates
 from ._reparam import param_slope, to_internal, to_param
-from ._solvers import SOLVERS, LevenbergMarquardt, gram, jacobian_rows, make_solver
+from ._solvers import (
+    SOLVERS,
+    LevenbergMarquardt,
+    gradient_cosines,
+    gram,
+    jacobian_rows,
+    make_solver,
+)
 
 __all__ = ["LOSSES", "SOLVERS", "FitResult", "FitResults", "fit", "fit_dataset", "fit_many"]
 
@@ -493,10 +500,8 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         # First-order optimality (MINPACK's gtol test, as scipy's least_squares): the
         # cosine between the residual vector and each Jacobian column, ignoring parameters
         # on their bound. optimistix's BFGS, for one, never stops at an exact optimum.
-        col = jnp.sqrt(jnp.maximum(jnp.diagonal(jtj), 0))
         rnorm = jnp.sqrt(jnp.sum(r_fin * r_fin))
-        cos = jnp.abs(jtr) / jnp.where(col * rnorm > 0, col * rnorm, 1)
-        cos = jnp.where(jnp.stack(at_bound), 0, cos)
+        cos = jnp.where(jnp.stack(at_bound), 0, gradient_cosines(jtj, jtr, rnorm))
         grad_ok = jnp.all(jnp.isfinite(cos)) & (jnp.max(cos, initial=0) <= rtol)
         # ...or residuals at rounding level (an exact fit: the cosine is then noise)
         eps = jnp.finfo(dtype).eps

@@ -31,7 +31,16 @@ import jax.numpy as jnp
 import optimistix as optx
 from jaxtyping import Array, Float, PyTree, Scalar
 
-__all__ = ["SOLVERS", "LevenbergMarquardt", "make_solver", "normal_equations", "spd_solve"]
+__all__ = [
+    "SOLVERS",
+    "LevenbergMarquardt",
+    "gradient_cosines",
+    "gram",
+    "jacobian_rows",
+    "make_solver",
+    "normal_equations",
+    "spd_solve",
+]
 
 #: Largest k solved by the unrolled Cholesky; larger systems use LAPACK's.
 UNROLL_MAX = 8
@@ -135,12 +144,18 @@ def normal_equations(fn, y, args, batched: bool = False):
     )
 
 
+def gradient_cosines(jtj: Float[Array, "k k"], jtr: Float[Array, " k"], rnorm: Array) -> Array:
+    """|cos| of the angle between the residual vector (norm `rnorm`) and each Jacobian column.
+
+    All 0 at a first-order optimum; invariant to rescaling a parameter.
+    """
+    denom = jnp.sqrt(jnp.maximum(jnp.diagonal(jtj), 0)) * rnorm
+    return jnp.abs(jtr) / jnp.where(denom > 0, denom, 1)  # denom 0 means jtr 0; inf stays
+
+
 def first_order_optimal(loss, jtj, jtr, gtol):
     """MINPACK's gtol test: the cosine between r and every Jacobian column is <= gtol."""
-    col = jnp.sqrt(jnp.maximum(jnp.diagonal(jtj), 0))
-    rnorm = jnp.sqrt(2 * loss)
-    denom = col * rnorm
-    cos = jnp.where(denom > 0, jnp.abs(jtr) / jnp.where(denom > 0, denom, 1), 0)
+    cos = gradient_cosines(jtj, jtr, jnp.sqrt(2 * loss))
     return jnp.isfinite(loss) & (jnp.max(cos) <= gtol)
 
 
@@ -260,17 +275,18 @@ def make_solver(name: str, rtol: float, atol: float, eps: float, batched: bool =
 
     `batched`: the solve is traced under `vmap` (attenfit's LM sums differently then).
     """
-    if name == "levenberg_marquardt":
-        return LevenbergMarquardt(rtol, atol, noise=64 * eps, batched=batched)
-    return SOLVERS[name](rtol, atol, eps)
+    return SOLVERS[name](rtol, atol, eps, batched)
 
 
-#: Solver names accepted by `attenfit.fit`. "levenberg_marquardt" is the variant above;
-#: "optimistix_lm" is optimistix's own, unchanged.
-SOLVERS: dict[str, Callable[[float, float, float], Any]] = {
-    "levenberg_marquardt": lambda rtol, atol, eps: LevenbergMarquardt(rtol, atol, noise=64 * eps),
-    "dogleg": lambda rtol, atol, eps: optx.Dogleg(rtol=rtol, atol=atol),
-    "gauss_newton": lambda rtol, atol, eps: optx.GaussNewton(rtol=rtol, atol=atol),
-    "bfgs": lambda rtol, atol, eps: optx.BFGS(rtol=rtol, atol=atol),
-    "optimistix_lm": lambda rtol, atol, eps: optx.LevenbergMarquardt(rtol=rtol, atol=atol),
+#: Solver names accepted by `attenfit.fit`, each a factory `(rtol, atol, eps, batched)`
+#: (`eps`: the dtype's epsilon; `batched`: traced under `vmap`). "levenberg_marquardt" is
+#: the solver above; "optimistix_lm" is optimistix's own, unchanged.
+SOLVERS: dict[str, Callable[[float, float, float, bool], Any]] = {
+    "levenberg_marquardt": lambda rtol, atol, eps, batched: LevenbergMarquardt(
+        rtol, atol, noise=64 * eps, batched=batched
+    ),
+    "dogleg": lambda rtol, atol, eps, batched: optx.Dogleg(rtol=rtol, atol=atol),
+    "gauss_newton": lambda rtol, atol, eps, batched: optx.GaussNewton(rtol=rtol, atol=atol),
+    "bfgs": lambda rtol, atol, eps, batched: optx.BFGS(rtol=rtol, atol=atol),
+    "optimistix_lm": lambda rtol, atol, eps, batched: optx.LevenbergMarquardt(rtol=rtol, atol=atol),
 }
