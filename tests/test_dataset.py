@@ -101,6 +101,12 @@ def test_builders_reject_bad_arguments():
         af.plane_receivers(SPHERE, 0.0, 0.1, n=3)
     with pytest.raises(af.BadTypeError, match="dtype must be float32 or float64"):
         af.facing_sweep(DISK, 0.1, 2.0, dtype=np.int32)
+    # found by the fuzz test: an intensity whose irradiance (up to pi L = I / r^2) overflows
+    # float32 was an internal error; it is the user's choice of values, said in one line
+    bright = af.SphereEmitter([0.0, 0.0, 0.0], 1.0, intensity=1e300)
+    with pytest.raises(af.BadValueError, match=r"gives irradiance up to 1e\+300, which overflows"):
+        af.facing_sweep(bright, 1.5, 2.0, n=4, dtype=np.float32)
+    assert np.all(np.isfinite(af.facing_sweep(bright, 1.5, 2.0, n=4, dtype=np.float64).E))
 
 
 def test_float32_datasets_stay_float32():
