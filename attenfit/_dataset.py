@@ -309,12 +309,13 @@ def _exact(emitter, points, normals, provenance, dtype) -> Dataset:
             f"a receiver is {nearest:g} m from the light's centre; in {dt_name} distances "
             f"must exceed {small:.3g} m (their squares underflow)"
         )
-    # no irradiance exceeds pi L (L the emitter's radiance): that bound must fit the dtype
+    # no irradiance exceeds pi L = I / r^2 (L the emitter's radiance): that bound, and the
+    # intensity the kernels multiply by, must fit the dtype
     peak = math.pi * float(emitter.intensity) / (math.pi * float(emitter.radius) ** 2)
-    if not peak < float(np.finfo(dtype).max) / 16:
+    if not max(peak, float(emitter.intensity)) < float(np.finfo(dtype).max) / 16:
         raise BadValueError(
-            f"the light's intensity {float(emitter.intensity):g} with radius "
-            f"{float(emitter.radius):g} m gives irradiance up to {peak:.3g}, which overflows "
+            f"the light's intensity {float(emitter.intensity):g} (radius "
+            f"{float(emitter.radius):g} m: irradiance up to {peak:.3g}) overflows "
             f"{dt_name}: lower the intensity, or use float64"
         )
     p = np.asarray(points, dtype=dtype)

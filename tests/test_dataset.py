@@ -104,8 +104,11 @@ def test_builders_reject_bad_arguments():
     # found by the fuzz test: an intensity whose irradiance (up to pi L = I / r^2) overflows
     # float32 was an internal error; it is the user's choice of values, said in one line
     bright = af.SphereEmitter([0.0, 0.0, 0.0], 1.0, intensity=1e300)
-    with pytest.raises(af.BadValueError, match=r"gives irradiance up to 1e\+300, which overflows"):
+    with pytest.raises(af.BadValueError, match=r"irradiance up to 1e\+300\) overflows float32"):
         af.facing_sweep(bright, 1.5, 2.0, n=4, dtype=np.float32)
+    big = af.SphereEmitter([0.0, 0.0, 0.0], 40.0, intensity=1e40)  # I itself overflows float32
+    with pytest.raises(af.BadValueError, match=r"intensity 1e\+40 .* overflows float32"):
+        af.facing_sweep(big, 50.0, 60.0, n=4, dtype=np.float32)
     assert np.all(np.isfinite(af.facing_sweep(bright, 1.5, 2.0, n=4, dtype=np.float64).E))
 
 
