@@ -489,7 +489,9 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             )
             jtj, jtr = gram([dr_df * row.astype(dtype) for row in f_rows], r_fin, batched)
         else:
-            # J with respect to the parameters is J_z diag(dz/dp), z = u / scale
+            # the solver's J^T J and J^T r, at its last point (a parameter snapped to its
+            # bound above moved within the tolerances), taken to the parameters: J with
+            # respect to them is J_z diag(dz/dp), z = u / scale
             f = model_values(pvec)[0]
             r_fin = of_values(f, target, weights)
             slope = scale * jnp.concatenate(
