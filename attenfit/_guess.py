@@ -60,12 +60,14 @@ def linear_candidate(
     kinds: Mapping[str, str],
     d: Float[Array, " n"],
     target: Float[Array, " n"],
-    weights: Float[Array, " n"],
+    inv_target: Float[Array, " n"],
+    weights: Float[Array, " n"] | None,
     loss: str,
     batched: bool = False,
 ) -> dict[str, Array] | None:
     """The reweighted linear least-squares start of an inverse-linear family, or None.
 
+    `inv_target`: 1 / target where target > 0, else 0.
     Only the free parameters are solved for; fixed ones move to the offset. Solutions
     outside a parameter's constraint fall back to the start (positive) or to 0
     (nonnegative); the caller keeps whichever candidate has the lowest loss.
@@ -77,15 +79,14 @@ def linear_candidate(
     if not solve_for or any(p not in start for p in basis):
         return None
     dtype = d.dtype
-    h = jnp.where(target > 0, 1 / jnp.where(target > 0, target, 1), 0)  # 1/target
-    rhs = h - offset_fn(d)
+    rhs = inv_target - offset_fn(d)
     for p in basis:
         if p not in free:
             rhs = rhs - start[p] * basis[p](d)
     # Linear least squares for 1/f = 1/target, rows weighted so that |g - h| reads as
     # the relative (log) error |g - h| / g ~ |g - h| f, or |g - h| f^2 (absolute).
     power = 2 if loss == "absolute" else 1
-    scale = target**power * weights
+    scale = target**power if weights is None else target**power * weights
     rows = [basis[p](d).astype(dtype) * scale for p in solve_for]
     ata, atb = gram(rows, rhs * scale, batched)
     # Jacobi scaling (unit columns): the system's condition is that of the basis' shapes

@@ -160,15 +160,16 @@ def polynomial(d: Real, kc: Real, kl: Real, kq: Real) -> Real:
     """1/(kc + kl d + kq d^2), OpenGL's fixed-function attenuation (`glLight`).
 
     Two branches so nothing overflows: for d <= 1 the polynomial directly, for d > 1
-    u^2 / (kc u^2 + kl u + kq) with u = 1/d. Coefficients are non-negative; the value is +inf
-    only where the denominator is 0 (kc = 0 at d = 0).
+    u^2 / (kc u^2 + kl u + kq) with u = 1/d; one division for both (a fit evaluates this
+    at every step, and divisions dominate its cost). Coefficients are non-negative; the
+    value is +inf only where the denominator is 0 (kc = 0 at d = 0).
     """
     near = d <= 1
     dn = jnp.where(near, d, jnp.zeros_like(d))
     u = 1 / jnp.where(near, jnp.ones_like(d), d)
-    f_near = 1 / (kc + dn * (kl + kq * dn))
-    f_far = (u * u) / (kq + u * (kl + kc * u))
-    return jnp.where(near, f_near, f_far)
+    numerator = jnp.where(near, jnp.ones_like(u), u * u)
+    denominator = jnp.where(near, kc + dn * (kl + kq * dn), kq + u * (kl + kc * u))
+    return numerator / denominator
 
 
 def power_clamped_value(d: Real, p: Real, floor: float) -> Real:

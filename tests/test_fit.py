@@ -246,6 +246,75 @@ def test_fit_many_matches_a_loop_of_fit():
     np.testing.assert_allclose(many.params["r"][[0, 1, 3]], radii[[0, 1, 3]], rtol=1e-6)
 
 
+def test_fit_many_snaps_only_the_problems_whose_optimum_is_on_the_bound():
+    # Polynomial against 1/(d^2 + r^2) (optimum kl = 0, on the bound) and against
+    # Yuksel's sphere curve (all three coefficients inside): in one batch the bound test
+    # runs for all (a batch-wide branch), and must not move the inside ones.
+    target = np.stack([1 / (D**2 + 1.3**2), yuksel_stable(D, 0.4), 1 / (D**2 + 0.2**2)])
+    start = af.Polynomial(kc=np.array([3.0, 0.1, 1.0]), kl=np.ones(3), kq=np.full(3, 0.5))
+    many = af.fit_many(start, D, target)
+    assert many[0].params["kl"] == 0.0 and many[0].at_bound == ("kl",)
+    assert many[2].params["kl"] == 0.0 and many[2].at_bound == ("kl",)
+    assert many[1].at_bound == () and min(many[1].params.values()) > 0
+    for i in range(3):
+        one = af.fit(
+            af.get_family("polynomial")(**{k: float(v[i]) for k, v in start.__dict__.items()}),
+            D,
+            target[i],
+        )
+        assert many[i].at_bound == one.at_bound
+        for k in ("kc", "kl", "kq"):
+            np.testing.assert_allclose(many[i].params[k], one.params[k], rtol=1e-9)
+    # the bound-free batch takes the other branch and reaches the same answer
+    inside = af.fit_many(
+        af.Polynomial(kc=np.array([0.1]), kl=np.ones(1), kq=np.full(1, 0.5)), D, target[1:2]
+    )
+    for k in ("kc", "kl", "kq"):
+        np.testing.assert_allclose(inside[0].params[k], many[1].params[k], rtol=1e-9)
+
+
+def test_more_nonnegative_parameters_than_one_pass_tries_at_zero():
+    # Four nonnegative coefficients (more than `_SUBSETS_MAX`: each is tried at 0 in its
+    # own pass); the data use two of them, so the other two end exactly on 0.
+    def fn(d, p):
+        return 1 / (p["a"] + p["b"] * d + p["c"] * d * d + p["e"] * d * d * d)
+
+    params = {"a": 0.5, "b": 0.5, "c": 0.5, "e": 0.5}
+    kinds = dict.fromkeys(params, "nonnegative")
+    assert len(kinds) > _fit._SUBSETS_MAX
+    d = np.linspace(0.0, 5.0, N)
+    res = af.fit((fn, params, kinds), d, 1 / (2.0 + 0.7 * d * d))
+    assert res.converged, res.message
+    assert res.params["b"] == 0.0 and res.params["e"] == 0.0
+    assert set(res.at_bound) == {"b", "e"}
+    np.testing.assert_allclose([res.params["a"], res.params["c"]], [2.0, 0.7], rtol=1e-6)
+
+
+def test_reported_loss_is_the_loss_at_the_returned_parameters():
+    # The LM ends with a Gauss-Newton step it does not evaluate; the fit evaluates the end
+    # point and reports its loss (0.5 sum r^2), recomputed here in numpy.
+    d = D
+    target = yuksel_stable(d, 0.8)
+    res = af.fit(af.Polynomial(kc=0.3, kl=0.1, kq=1.0), d, target, rtol=1e-8, atol=1e-8)
+    p = res.params
+    f = 1 / (p["kc"] + p["kl"] * d + p["kq"] * d * d)
+    np.testing.assert_allclose(res.loss, 0.5 * np.sum(((f - target) / target) ** 2), rtol=1e-12)
+    np.testing.assert_allclose(
+        res.metrics["max_rel_error"], np.max(np.abs(f - target) / target), rtol=1e-9
+    )
+
+
+def test_sums_and_maxima_in_one_reduction():
+    from attenfit._solvers import reduce_samples
+
+    rng = np.random.default_rng(3)
+    x, y = rng.normal(size=(2, 257))
+    got = reduce_samples([jnp.asarray(x), jnp.asarray(x * y)], [jnp.asarray(y)])
+    np.testing.assert_allclose(got, [x.sum(), (x * y).sum(), y.max()], rtol=1e-12)
+    y[5] = np.nan
+    assert all(np.isnan(v) for v in reduce_samples([jnp.asarray(y)], [jnp.asarray(y)]))
+
+
 def test_float32_fit_works_and_says_so():
     d32 = D.astype(np.float32)
     target = yuksel_np(D, 0.7).astype(np.float32)
