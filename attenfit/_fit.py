@@ -536,30 +536,22 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         dtype, n = d.dtype, d.shape[-1]
         ps = Passes(values, d, target, weights, inv_target)
         scale = mid["scale"]
-        u = mid["z"] * scale
-        if is_lm:
-            # the end point, or the last point evaluated if that is better (the solver's
-            # final step is not evaluated by it)
-            u_eval = mid["z_eval"] * scale
-            if try_zero and nonneg:
-                cost = ps.losses([u, u_eval])
-                take_end, best = cost[0] <= cost[1], jnp.min(cost)
-                u = jnp.where(take_end, u, u_eval)
-            else:
-                cost, sq_err, max_err = ps.losses_and_errors([u, u_eval])
-                take_end = cost[0] <= cost[1]
-                pick = lambda x: jnp.where(take_end, x[0], x[1])  # noqa: E731
-                u, best, sq_err, max_err = (
-                    pick([u, u_eval]),
-                    pick(cost),
-                    pick(sq_err),
-                    pick(max_err),
-                )
-            z_end = jnp.where(take_end, mid["z"], mid["z_eval"])
+        # The end point, or (attenfit's LM, which does not evaluate its final step) the
+        # last point it evaluated, where that is better.
+        zs = [mid["z"], mid["z_eval"]] if is_lm else [mid["z"]]
+        ends = [z * scale for z in zs]
+        if try_zero and nonneg:
+            cost = ps.losses(ends)
+        else:
+            cost, sq_err, max_err = ps.losses_and_errors(ends)
+        take_end = cost[0] <= cost[-1]
+
+        def pick(x):
+            return jnp.where(take_end, x[0], x[-1])
+
+        u, best, z_end = pick(ends), pick(cost), pick(zs)
         if not (try_zero and nonneg):
-            if not is_lm:
-                cost, sq_err, max_err = (x[0] for x in ps.losses_and_errors([u]))
-                best = cost
+            sq_err, max_err = pick(sq_err), pick(max_err)
         elif len(nonneg) <= _SUBSETS_MAX:
             # Each nonnegative parameter in turn is set to 0 where that fits as well
             # (`threshold`, against the loss reached so far). Every way of zeroing them is
@@ -578,7 +570,6 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
                 u = u.at[j].set(jnp.where(ok, 0, u[j]))
             sq_err, max_err = sq_err[mask], max_err[mask]
         else:
-            best = ps.losses([u])[0]
             for j in nonneg:
                 c0 = ps.losses([u.at[j].set(0)])[0]
                 ok = c0 <= threshold(best, n)
