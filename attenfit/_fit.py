@@ -387,7 +387,7 @@ def _flat_kinds(spec: _Spec, free: tuple[str, ...]) -> list[str]:
 _SUBSETS_MAX = 3
 
 #: A nonnegative parameter is tried at 0 when the solver's linear model of the residuals
-#: puts the loss there within this many times the tolerance of the fitted loss (`_snaps`).
+#: puts the loss there within this many times the tolerance of the fitted loss (`finish`).
 #: The model is the solver's own (exact for a linear parameter); this margin covers its
 #: error over the move to 0, so the test is skipped (a pass over the samples per way of
 #: zeroing) only where 0 is far out of reach.
@@ -459,13 +459,11 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             rs = [self.residual(f) for f in fs]
             if self.plain_relative:  # the residuals are the relative errors
                 out = reduce_samples([r * r for r in rs], [jnp.abs(r) for r in rs])
-                c = 0.5 * jnp.stack(out[:m])
-                sq_err = 2 * c
             else:
                 rels = [jnp.abs(f - self.target) * self.inv_target for f in fs]
                 out = reduce_samples([r * r for r in rs] + [e * e for e in rels], rels)
-                c = 0.5 * jnp.stack(out[:m])
-                sq_err = jnp.stack(out[m : 2 * m])
+            c = 0.5 * jnp.stack(out[:m])
+            sq_err = 2 * c if self.plain_relative else jnp.stack(out[m : 2 * m])
             return jnp.where(jnp.isfinite(c), c, jnp.inf), sq_err, jnp.stack(out[-m:])
 
     def threshold(best, n):
@@ -621,7 +619,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         exact = rnorm <= 64 * eps * jnp.sqrt(jnp.asarray(n, dtype)) * w_max
         grad_ok = grad_ok | exact
         npos = n if loss != "absolute" else jnp.maximum(sums((target > 0).astype(dtype))[0], 1)
-        return dict(
+        out = dict(
             pvec=pvec,
             result=mid["result"],
             steps=mid["steps"],
@@ -634,11 +632,13 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             at_bound=jnp.stack(at_bound),
             grad_ok=grad_ok,
         )
+        return _pack(out, int(offsets[-1]))
 
     each = jax.vmap if batched else (lambda fn: fn)
 
-    def run(values, d, target, weights):
-        """The outputs of `finish`, for one problem or (`batched`) with a leading batch axis.
+    def run(values, d, target, weights=None):
+        """The packed outputs of `finish` (`_pack`), for one problem or (`batched`) with a
+        leading batch axis.
 
         The final pass tries nonnegative parameters at 0 only when some problem may have
         its optimum there (a branch on the whole batch: under `vmap` a per-problem `cond`
@@ -781,14 +781,10 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, d
         run = _build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched)
         k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
 
-        def packed(values, d, target, weights=None):
-            out = run(values, d, target, weights)
-            return (jax.vmap if batched else lambda fn: fn)(lambda o: _pack(o, k))(out)
-
         if batched:
-            fn = jax.jit(_chunked(packed, _CHUNK))
+            fn = jax.jit(_chunked(run, _CHUNK))
         else:
-            fn = jax.jit(lambda flat: packed(*_unflatten_inputs(spec, flat, weighted)))
+            fn = jax.jit(lambda flat: run(*_unflatten_inputs(spec, flat, weighted)))
         fn = _Unpacking(fn, k)
         _COMPILED[key] = fn
     return fn

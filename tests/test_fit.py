@@ -258,7 +258,7 @@ def test_fit_many_snaps_only_the_problems_whose_optimum_is_on_the_bound():
     assert many[1].at_bound == () and min(many[1].params.values()) > 0
     for i in range(3):
         one = af.fit(
-            af.get_family("polynomial")(**{k: float(v[i]) for k, v in start.__dict__.items()}),
+            af.Polynomial(kc=float(start.kc[i]), kl=float(start.kl[i]), kq=float(start.kq[i])),
             D,
             target[i],
         )
