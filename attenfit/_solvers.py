@@ -228,7 +228,9 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     in the residuals (|J delta| < atol sqrt(n) + rtol |r|; optimistix's Cauchy test), or
     whose actual and predicted relative reductions of the loss are both at most rtol
     (MINPACK's ftol test, as scipy's `least_squares`), or at a first-order optimum
-    (MINPACK's gtol test with gtol = rtol); it stops with `nonlinear_divergence` when the
+    (MINPACK's gtol test with gtol = rtol), or at a loss at most `options["exact_loss"]`
+    (residuals at rounding level, where those tests read noise); it stops with
+    `nonlinear_divergence` when the
     damping has grown past 1/eps^2 (no step can reduce the loss), and with `nonfinite`
     when the start's residuals are not finite.
 
@@ -252,6 +254,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
 
     def init(self, fn, y, args, options, f_struct, aux_struct, tags):
         loss, jtj, jtr, _, _ = normal_equations(fn, y, args, self.batched)
+        exact = loss <= options.get("exact_loss", 0)
         diag = jnp.diagonal(jtj)
         scale = _damping_scale(diag, jnp.zeros_like(diag))
         finite = jnp.isfinite(loss)
@@ -264,7 +267,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
             lam=jnp.asarray(self.initial_damping, y.dtype),
             nu=jnp.asarray(2.0, y.dtype),
             crossing_rejected=jnp.zeros((), bool),
-            terminate=jnp.invert(finite) | first_order_optimal(loss, jtj, jtr, self.rtol),
+            terminate=jnp.invert(finite) | exact | first_order_optimal(loss, jtj, jtr, self.rtol),
             result=optx.RESULTS.where(finite, optx.RESULTS.successful, optx.RESULTS.nonfinite),
         )
 
@@ -321,7 +324,9 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
         )
         keep = lambda new, old: jnp.where(accept, new, old)  # noqa: E731
         loss, jtj, jtr = keep(loss_t, state.loss), keep(jtj_t, state.jtj), keep(jtr_t, state.jtr)
-        optimal = first_order_optimal(loss, jtj, jtr, self.rtol)
+        optimal = first_order_optimal(loss, jtj, jtr, self.rtol) | (
+            loss <= options.get("exact_loss", 0)
+        )
         stuck = lam > 1 / eps**2
         # MINPACK's ftol test (scipy's least_squares): actual and predicted relative
         # reductions of the loss both at most rtol

@@ -15,7 +15,8 @@ tolerances (1e-8: scipy's ftol = xtol = gtol, attenfit's rtol = atol); the table
 the final losses (0.5 sum r^2) so "as fast" never means "less converged". Medians over
 repeats (wall clock, best of the repeats, and process CPU time: the machine is shared, so
 wall times vary with its load), and ratios measured in the same run, the two sides timed
-in turns so that a change of load hits both.
+in turns so that a change of load hits both. `taskset -c 0 python -m benchmarks fit` runs
+it on one core: a single fit's compiled solve is then not handed between XLA's threads.
 """
 
 from __future__ import annotations
