@@ -12,7 +12,6 @@ Run: `python -m benchmarks cost` (about half a minute on 2 cores).
 
 from __future__ import annotations
 
-import statistics
 import time
 
 import numpy as np
@@ -21,19 +20,15 @@ import attenfit
 from attenfit import cost
 from attenfit._trace import trace
 
+from .timing import median_seconds
+
 N = 1 << 18
 REPEATS = 11
 NUMPY_REPEATS = 5
 
 
 def _numpy_ns(program, d: np.ndarray) -> float:
-    program.evaluate_numpy(d)  # warm up
-    times = []
-    for _ in range(NUMPY_REPEATS):
-        start = time.perf_counter()
-        program.evaluate_numpy(d)
-        times.append(time.perf_counter() - start)
-    return statistics.median(times) / d.size * 1e9
+    return median_seconds(program.evaluate_numpy, d, repeats=NUMPY_REPEATS) / d.size * 1e9
 
 
 def main() -> None:

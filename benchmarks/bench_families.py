@@ -11,9 +11,6 @@ factored form. Medians over repeats; the machine is shared, so read the ratios.
 
 from __future__ import annotations
 
-import statistics
-import time
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -21,18 +18,10 @@ import numpy as np
 import attenfit
 from attenfit import _parts as parts
 
+from .timing import median_seconds
+
 N = 1_000_000
 REPEATS = 15
-
-
-def _median_seconds(fn, x) -> float:
-    fn(x).block_until_ready()  # compile
-    times = []
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        fn(x).block_until_ready()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def main() -> None:
@@ -41,7 +30,7 @@ def main() -> None:
     rows = []
     for name in attenfit.list_families():
         fam = attenfit.get_family(name)()
-        rows.append((name, _median_seconds(jax.jit(lambda x, fam=fam: fam(x)), d)))
+        rows.append((name, median_seconds(jax.jit(lambda x, fam=fam: fam(x)), d, repeats=REPEATS)))
 
     def naive_yuksel(x, r=0.1):
         return 2 / r**2 * (1 - x / jnp.sqrt(x * x + r * r))
@@ -53,9 +42,9 @@ def main() -> None:
         return parts.smooth_window(x, jnp.float32(10.0))
 
     peers = [
-        ("yuksel eq. 7, naive form", _median_seconds(jax.jit(naive_yuksel), d)),
-        ("window, naive (1-x^4)+^2", _median_seconds(jax.jit(naive_window), d)),
-        ("window, parts.smooth_window", _median_seconds(jax.jit(stable_window), d)),
+        ("yuksel eq. 7, naive form", median_seconds(jax.jit(naive_yuksel), d, repeats=REPEATS)),
+        ("window, naive (1-x^4)+^2", median_seconds(jax.jit(naive_window), d, repeats=REPEATS)),
+        ("window, parts.smooth_window", median_seconds(jax.jit(stable_window), d, repeats=REPEATS)),
     ]
     base = dict(rows)["inverse_square"]
     print(f"{N:,} float32 distances, median of {REPEATS} jitted calls")

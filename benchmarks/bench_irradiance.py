@@ -15,27 +15,17 @@
 from __future__ import annotations
 
 import math
-import statistics
-import time
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .timing import median_seconds
+
 N = 65_536
 N_CAPSULE = 4_096  # the capsule's quadrature costs ~300x the sphere's closed form
 REPEATS = 5
-
-
-def _median(fn, *args) -> float:
-    jax.block_until_ready(fn(*args))
-    times = []
-    for _ in range(REPEATS):
-        t0 = time.perf_counter()
-        jax.block_until_ready(fn(*args))
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
 
 
 def _receivers(em, n, seed, dmin=1.05, dmax=50.0):
@@ -103,15 +93,17 @@ def _run(af, _irradiance) -> None:
         p64, n64 = _receivers(em, N_CAPSULE if em.kind == "capsule" else N, 0)
         for dt in (jnp.float32, jnp.float64):
             p, n = jnp.asarray(p64, dt), jnp.asarray(n64, dt)
-            t = _median(exact, em, p, n)
-            tp = _median(point, em, p, n)
+            t = median_seconds(exact, em, p, n, repeats=REPEATS)
+            tp = median_seconds(point, em, p, n, repeats=REPEATS)
             print(
                 f"   {em.kind:<9}{jnp.dtype(dt).name:<9}{len(p) / t:>12.3g}{t / tp:>15.1f}x slower"
             )
     sphere = ems[0]
     p64, n64 = _receivers(sphere, N, 0)
-    t_np = _median(lambda: _numpy_sphere_frostbite(np.zeros(3), 1.0, p64, n64))
-    t_ax = _median(exact, sphere, jnp.asarray(p64), jnp.asarray(n64))
+    t_np = median_seconds(
+        lambda: _numpy_sphere_frostbite(np.zeros(3), 1.0, p64, n64), repeats=REPEATS
+    )
+    t_ax = median_seconds(exact, sphere, jnp.asarray(p64), jnp.asarray(n64), repeats=REPEATS)
     ref = np.asarray(exact(sphere, jnp.asarray(p64), jnp.asarray(n64)))
     diff = np.max(
         np.abs(_numpy_sphere_frostbite(np.zeros(3), 1.0, p64, n64) - ref) * np.sum(p64**2, 1)
@@ -135,7 +127,7 @@ def _run(af, _irradiance) -> None:
             def q(p, n, nodes=nodes, em=em):
                 return af.quadrature.irradiance(em, p, n, nodes=nodes)
 
-            t = _median(q, p, n)
+            t = median_seconds(q, p, n, repeats=REPEATS)
             err = np.max(np.abs(np.asarray(q(p, n)) - ref) * scale)
             print(f"   {em.kind:<9}{nodes:>6}{err:>20.2e}{t / len(p) * 1e6:>14.1f}")
 
@@ -149,7 +141,7 @@ def _run(af, _irradiance) -> None:
     ref = np.asarray(fn(cap, p, n, 160))
     scale = np.asarray(cap.point_light(p, n)[0]) ** 2
     for nodes in (8, 16, 32, 64):
-        t = _median(fn, cap, p, n, nodes)
+        t = median_seconds(fn, cap, p, n, nodes, repeats=REPEATS)
         err = np.max(np.abs(np.asarray(fn(cap, p, n, nodes)) - ref) * scale)
         mark = "  (default)" if nodes == _irradiance.CAPSULE_NODES else ""
         print(f"   {'capsule':<9}{nodes:>6}{err:>20.2e}{t / len(p) * 1e6:>14.1f}{mark}")

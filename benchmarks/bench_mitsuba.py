@@ -15,26 +15,11 @@ Relative error scales as 1/sqrt(spp); read the spp for a target accuracy off the
 
 from __future__ import annotations
 
-import statistics
 import sys
-import time
 
 import numpy as np
 
-
-def _median_time(fn, repeats: int) -> float:
-    return _median_times(fn, repeats)[0]
-
-
-def _median_times(fn, repeats: int) -> tuple[float, float]:
-    """Median wall and CPU (all threads of this process) seconds of `fn()` over `repeats`."""
-    wall, cpu = [], []
-    for _ in range(repeats):
-        t, c = time.perf_counter(), time.process_time()
-        fn()
-        wall.append(time.perf_counter() - t)
-        cpu.append(time.process_time() - c)
-    return statistics.median(wall), statistics.median(cpu)
+from .timing import median_seconds, median_wall_and_cpu
 
 
 def main() -> None:
@@ -57,12 +42,8 @@ def main() -> None:
     peers = {}
     for name, ds in cases.items():
         p, nn = jax.numpy.asarray(ds.points), jax.numpy.asarray(ds.normals)
-        irradiance(ds.emitter, p, nn).block_until_ready()
         peers[name] = (
-            _median_time(
-                lambda ds=ds, p=p, nn=nn: irradiance(ds.emitter, p, nn).block_until_ready(), 50
-            )
-            / n
+            median_seconds(lambda ds=ds, p=p, nn=nn: irradiance(ds.emitter, p, nn), repeats=50) / n
         )
         print(f"closed form ({name}): {peers[name] * 1e6:.2f} us per receiver", flush=True)
     variants = ["scalar_rgb"] + (["llvm_ad_rgb"] if llvm.name == "llvm_ad_rgb" else [])
@@ -82,7 +63,7 @@ def main() -> None:
                 def run(ds=ds, spp=spp, out=out, variant=variant):
                     out["d"] = render_dataset(ds, spp=spp, seed=1, variant=variant)
 
-                dt, cpu = _median_times(run, 3 if spp <= 4096 else 1)
+                dt, cpu = median_wall_and_cpu(run, 3 if spp <= 4096 else 1)
                 dt, cpu = dt / n, cpu / n
                 d = out["d"]
                 rel = float(np.median(d.stderr[d.E > 0] / d.E[d.E > 0]))

@@ -13,11 +13,12 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import statistics
 import time
 from pathlib import Path
 
 import jax
+
+from .timing import median_seconds
 
 jax.config.update("jax_enable_x64", True)  # as the CLI
 
@@ -29,15 +30,6 @@ FAMILIES = ("inverse_square", "clamped", "disk_facing", "yuksel", "cryengine_lin
 REPEATS = 5
 
 
-def _median_time(fn, repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
 def main() -> None:
     every = os.environ.get("ATTENFIT_BENCH_ALL") == "1"
     print(f"families: {'all' if every else ', '.join(FAMILIES)}; medians of {REPEATS}")
@@ -46,11 +38,13 @@ def main() -> None:
         scene = Scene.load(path)
         if not every:
             scene = dataclasses.replace(scene, families=FAMILIES)
-        truth = _median_time(scene.ground_truth, REPEATS)
+        truth = median_seconds(scene.ground_truth, repeats=REPEATS, warm=False)
         start = time.perf_counter()
         rec = attenfit.recommend(scene, measure=False)
         first = time.perf_counter() - start
-        warm = _median_time(lambda s=scene: attenfit.recommend(s, measure=False), REPEATS)
+        warm = median_seconds(
+            lambda s=scene: attenfit.recommend(s, measure=False), repeats=REPEATS, warm=False
+        )
         winner = rec.winner.label if rec.winner else "none"
         print(
             f"{path.name:<22}{truth:>10.3f}{first:>10.2f}{warm:>10.3f}{warm / truth:>12.2f}  {winner}"

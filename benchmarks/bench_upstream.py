@@ -18,12 +18,13 @@ Run: `python -m benchmarks upstream` (about a minute; Mitsuba dominates).
 
 from __future__ import annotations
 
-import statistics
 import sys
 import time
 
 import jax
 import numpy as np
+
+from .timing import median_seconds
 
 jax.config.update("jax_enable_x64", True)
 
@@ -31,16 +32,6 @@ import attenfit as af  # noqa: E402
 
 R = 0.1
 N_RECEIVERS = 64
-
-
-def _median_time(fn, repeats: int = 7) -> float:
-    fn()  # warm up / compile
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def _receivers() -> tuple[np.ndarray, np.ndarray]:
@@ -68,11 +59,11 @@ def ground_truth() -> None:
         err = np.max(np.abs(v[ok] - ref[ok]) / ref[ok])
         rows.append((method, seconds * 1e3, err))
 
-    t = _median_time(lambda: exact64(points, normals).block_until_ready())
+    t = median_seconds(lambda: exact64(points, normals), repeats=7)
     add("closed form, float64", ref, t)
     p32, n32 = points.astype(np.float32), normals.astype(np.float32)
     out32 = exact64(p32, n32)
-    t = _median_time(lambda: exact64(p32, n32).block_until_ready())
+    t = median_seconds(lambda: exact64(p32, n32), repeats=7)
     add("closed form, float32", out32, t)
 
     quad = getattr(af.quadrature, "irradiance", None)
@@ -81,7 +72,7 @@ def ground_truth() -> None:
             try:
                 fn = jax.jit(lambda p, n, nodes=nodes: quad(emitter, p, n, nodes=nodes))
                 vals = fn(points, normals)
-                t = _median_time(lambda fn=fn: fn(points, normals).block_until_ready(), 3)
+                t = median_seconds(lambda fn=fn: fn(points, normals), repeats=3)
                 add(f"quadrature, {nodes} nodes", vals, t)
             except TypeError as exc:  # a different signature in this version
                 print(f"(quadrature skipped: {exc})")
@@ -142,7 +133,7 @@ def fitting() -> None:
 
             try:
                 res = run()
-                t = _median_time(run, 3)
+                t = median_seconds(run, repeats=3)
             except Exception as exc:  # report, do not stop the table
                 print(f"{solver:20s} {np.dtype(dtype).name:8s} failed: {type(exc).__name__}: {exc}")
                 continue
