@@ -44,7 +44,7 @@ from jaxtyping import Array, ArrayLike, Float
 from ._errors import BadTypeError, BadValueError, UnknownNameError
 from ._family import Family
 from ._guess import linear_candidate, scale_candidates
-from ._reparam import param_slope, to_internal, to_param
+from ._reparam import by_kind, param_slope, to_internal, to_param
 from ._solvers import (
     SOLVERS,
     LevenbergMarquardt,
@@ -89,11 +89,14 @@ class _Spec:
 
 def _family_spec(model: Family, batched: bool) -> tuple[_Spec, dict[str, np.ndarray]]:
     cls = type(model)
-    treedef = jax.tree_util.tree_structure(model)
+    leaves, treedef = jax.tree_util.tree_flatten(model)
     spec = _FAMILY_SPECS.get((cls, treedef))
     if spec is None:
         spec = _FAMILY_SPECS[cls, treedef] = _new_family_spec(model, treedef)
-    values = {n: np.asarray(getattr(model, n)) for n in spec.names}
+    if spec.leaves_are_params:
+        values = {n: np.asarray(v) for n, v in zip(spec.names, leaves, strict=True)}
+    else:
+        values = {n: np.asarray(getattr(model, n)) for n in spec.names}
     for n, v in values.items():
         if v.dtype.kind not in "fiu":
             raise BadTypeError(
@@ -232,9 +235,9 @@ def _float_array(name: str, x: Any) -> np.ndarray:
         arr = np.asarray(x)
     except Exception as exc:
         raise BadTypeError(f"{name} must be an array of floats, got {type(x).__name__}") from exc
-    if np.issubdtype(arr.dtype, np.integer):  # whole metres, counts: exact in JAX's float
+    if arr.dtype.kind in "iu":  # whole metres, counts: exact in JAX's float
         arr = arr.astype(jax.dtypes.canonicalize_dtype(np.float64))
-    if not np.issubdtype(arr.dtype, np.floating):
+    if arr.dtype.kind != "f":
         raise BadTypeError(f"{name} must be a floating-point array, got dtype {arr.dtype}")
     return arr
 
@@ -295,6 +298,32 @@ def _validate_options(
     n: int,
     batch: int | None,
 ) -> tuple[str, ...]:
+    if isinstance(free, str):
+        free = (free,)
+    free = tuple(free)
+    args = (spec, free, loss, solver, type(max_steps), max_steps, n)
+    try:
+        hash(args)
+    except TypeError:  # an unhashable argument (a solver instance, say): checked every time
+        free = _checked_options.__wrapped__(*args)
+    else:  # the same options again (a fit in a loop): checked once
+        free = _checked_options(*args)
+    for name, kind in zip(spec.names, spec.kinds, strict=True):
+        v = values[name]
+        lo, hi = (float(v), float(v)) if v.ndim == 0 else (float(v.min()), float(v.max()))
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise BadValueError(f"start value of {name!r} is not finite: {v!r}")
+        if not (kind == "real" or (lo >= 0 and (kind != "unit" or hi <= 1))):
+            ok = (v >= 0) & (v <= 1) if kind == "unit" else v >= 0
+            raise BadValueError(
+                f"start value of {name!r} must be {_CONSTRAINT_WORDS[kind]}, got {v[~ok].flat[0].item()!r}"
+            )
+    return free
+
+
+@functools.lru_cache(maxsize=256)
+def _checked_options(spec, free, loss, solver, max_steps_type, max_steps, n) -> tuple[str, ...]:
+    """`free`, once `free`, `loss`, `solver` and `max_steps` are checked (see `fit`)."""
     if not isinstance(loss, str) or loss not in LOSSES:
         raise UnknownNameError(f"unknown loss {loss!r}; known losses: {', '.join(LOSSES)}")
     if isinstance(solver, str):
@@ -309,9 +338,6 @@ def _validate_options(
         )
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:
         raise BadValueError(f"max_steps must be a positive integer, got {max_steps!r}")
-    if isinstance(free, str):
-        free = (free,)
-    free = tuple(free)
     if not free:
         raise BadValueError("free is empty: name at least one parameter to fit")
     for name in free:
@@ -321,31 +347,26 @@ def _validate_options(
             )
     if len(set(free)) != len(free):
         raise BadValueError(f"free names a parameter twice: {list(free)}")
-    k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
+    k = _free_size(spec, free)
     if n < k:
         raise BadValueError(f"{n} samples cannot determine {k} free parameter values")
-    for name, kind in zip(spec.names, spec.kinds, strict=True):
-        v = values[name]
-        lo, hi = (float(v), float(v)) if v.ndim == 0 else (float(v.min()), float(v.max()))
-        if not (math.isfinite(lo) and math.isfinite(hi)):
-            raise BadValueError(f"start value of {name!r} is not finite: {v!r}")
-        if not (kind == "real" or (lo >= 0 and (kind != "unit" or hi <= 1))):
-            ok = (v >= 0) & (v <= 1) if kind == "unit" else v >= 0
-            raise BadValueError(
-                f"start value of {name!r} must be {_CONSTRAINT_WORDS[kind]}, got {v[~ok].flat[0].item()!r}"
-            )
     return free
 
 
 def _dtype_of(*arrays: np.ndarray) -> np.dtype:
     """The JAX float dtype a fit runs in: the widest input float, as JAX will hold it."""
-    wide = np.result_type(*arrays)
-    return np.dtype(jax.dtypes.canonicalize_dtype(wide))
+    return np.dtype(jax.dtypes.canonicalize_dtype(np.result_type(*arrays)))
+
+
+@functools.cache
+def _default_tolerance(dtype: np.dtype) -> float:
+    """1e-8 in float64, 1e-5 in float32 (100 eps where that is larger)."""
+    eps = float(np.finfo(dtype).eps)
+    return 1e-8 if eps < 1e-10 else max(1e-5, 100 * eps)
 
 
 def _default_tolerances(dtype: np.dtype, rtol: float | None, atol: float | None):
-    eps = float(np.finfo(dtype).eps)
-    default = 1e-8 if eps < 1e-10 else max(1e-5, 100 * eps)
+    default = _default_tolerance(dtype)
     for name, tol in (("rtol", rtol), ("atol", atol)):
         if tol is not None and not (
             isinstance(tol, int | float | np.floating | np.integer) and 0 <= tol < math.inf
@@ -373,6 +394,19 @@ def _residual_of_values(loss: str):
         return lambda f: w * (f - target)
 
     return prepare
+
+
+def _on_bound(kind: str, u: Array) -> Array:
+    """Whether coordinate `u` puts a parameter of constraint `kind` on its bound."""
+    eps = jnp.finfo(u.dtype).eps
+    if kind == "nonnegative":
+        return u == 0
+    if kind == "positive":  # exp(u) cannot reach 0; a parameter that ran towards it is on it
+        return jnp.exp(u) < eps**1.5
+    if kind == "unit":
+        q = jax.nn.sigmoid(u)
+        return (q < eps) | (q > 1 - eps)
+    return jnp.zeros(u.shape, bool)
 
 
 def _flat_kinds(spec: _Spec, free: tuple[str, ...]) -> list[str]:
@@ -419,8 +453,16 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             out[p] = vec[offsets[i] : offsets[i + 1]].reshape(spec.shapes[index[p]])
         return out
 
-    def to_u(params):
-        return jnp.concatenate([to_internal(kinds[p], params[p]).reshape(-1) for p in free])
+    def to_u(blocks):
+        """The coordinates of parameter sets, one row each. `blocks`: dicts of the free
+        parameters' values with a leading axis of rows; each parameter's rows are stacked
+        first, so that each map is one operation on all of them."""
+        cols = [
+            jnp.concatenate([jnp.reshape(b[p], (b[p].shape[0], -1)) for b in blocks]) for p in free
+        ]
+        return jnp.concatenate(
+            [to_internal(kinds[p], x) for p, x in zip(free, cols, strict=True)], axis=1
+        )
 
     def from_u(u, values):
         out = dict(values)
@@ -448,23 +490,23 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             return self.residual(self.model_at(u))
 
         def losses(self, us):
-            """0.5 |r|^2 at each point, in one pass (inf where not finite)."""
-            c = 0.5 * jnp.stack(sums(*(r * r for r in map(self.res_u, us))))
+            """0.5 |r|^2 at each row (point) of `us`, in one pass (inf where not finite)."""
+            (sq,) = reduce_samples([jnp.square(jax.vmap(self.res_u)(us))])
+            c = 0.5 * sq
             return jnp.where(jnp.isfinite(c), c, jnp.inf)
 
         def losses_and_errors(self, us):
             """...with the sums of squares and maxima of the relative errors |f - t| / t."""
-            m = len(us)
-            fs = [self.model_at(u) for u in us]
-            rs = [self.residual(f) for f in fs]
+            fs = jax.vmap(self.model_at)(us)
+            rs = jax.vmap(self.residual)(fs)
             if self.plain_relative:  # the residuals are the relative errors
-                out = reduce_samples([r * r for r in rs], [jnp.abs(r) for r in rs])
+                sq, max_err = reduce_samples([rs * rs], [jnp.abs(rs)])
+                sq_err = sq
             else:
-                rels = [jnp.abs(f - self.target) * self.inv_target for f in fs]
-                out = reduce_samples([r * r for r in rs] + [e * e for e in rels], rels)
-            c = 0.5 * jnp.stack(out[:m])
-            sq_err = 2 * c if self.plain_relative else jnp.stack(out[m : 2 * m])
-            return jnp.where(jnp.isfinite(c), c, jnp.inf), sq_err, jnp.stack(out[-m:])
+                rels = jnp.abs(fs - self.target[None]) * self.inv_target[None]
+                sq, sq_err, max_err = reduce_samples([rs * rs, rels * rels], [rels])
+            c = 0.5 * sq
+            return jnp.where(jnp.isfinite(c), c, jnp.inf), sq_err, max_err
 
     def threshold(best, n):
         """0 fits as well within the tolerances: the loss rises by at most rtol relative
@@ -474,9 +516,12 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
     def solve(values, d, target, weights, inv_target):
         dtype, n = d.dtype, d.shape[-1]
         ps = Passes(values, d, target, weights, inv_target)
-        cands = [values]
+        # the candidates, as blocks of rows (see `to_u`)
+        cands = [{p: values[p][None] for p in free}]
         if guess:
-            cands += scale_candidates(values, free_lengths)
+            scaled = scale_candidates(values, free, free_lengths)
+            if scaled:
+                cands.append(scaled)
             lin = linear_candidate(
                 spec.family or "",
                 values,
@@ -490,9 +535,9 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
                 batched,
             )
             if lin is not None:
-                cands.append(lin)
-        us = jnp.stack([to_u(c) for c in cands])
-        costs = ps.losses(list(us))
+                cands.append({p: lin[p][None] for p in free})
+        us = to_u(cands)
+        costs = ps.losses(us)
         best_cand = jnp.argmin(costs)
         u0, start_loss = us[best_cand], costs[best_cand]
         # The solver moves z = u / scale: nonnegative and real coordinates are scaled by
@@ -542,65 +587,60 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         scale = mid["scale"]
         # The end point, or (attenfit's LM, which does not evaluate its final step) the
         # last point it evaluated, where that is better.
-        zs = [mid["z"], mid["z_eval"]] if is_lm else [mid["z"]]
-        ends = [z * scale for z in zs]
+        zs = jnp.stack([mid["z"], mid["z_eval"]] if is_lm else [mid["z"]])
+        ends = zs * scale[None]
         if try_zero and nonneg:
             cost = ps.losses(ends)
         else:
             cost, sq_err, max_err = ps.losses_and_errors(ends)
         take_end = cost[0] <= cost[-1]
 
-        def pick(x):
-            return jnp.where(take_end, x[0], x[-1])
-
-        u, best, z_end = pick(ends), pick(cost), pick(zs)
-        if not (try_zero and nonneg):
-            sq_err, max_err = pick(sq_err), pick(max_err)
-        elif len(nonneg) <= _SUBSETS_MAX:
-            # Each nonnegative parameter in turn is set to 0 where that fits as well
-            # (`threshold`, against the loss reached so far). Every way of zeroing them is
-            # evaluated in the one pass: bit b of a mask zeroes nonneg[b].
-            points = [
-                u.at[np.array([j for b, j in enumerate(nonneg) if mask >> b & 1], int)].set(0)
-                for mask in range(2 ** len(nonneg))
+        def pick(*xs):
+            """Each of `xs` (a row per end point) at the end point taken, in one selection."""
+            rows = jnp.concatenate([jnp.reshape(x, (x.shape[0], -1)) for x in xs], axis=1)
+            chosen = jnp.where(take_end, rows[0], rows[-1])
+            cuts = np.cumsum([0] + [x[0].size for x in xs])
+            return [
+                chosen[a:b].reshape(x.shape[1:])
+                for a, b, x in zip(cuts[:-1], cuts[1:], xs, strict=True)
             ]
-            cost, sq_err, max_err = ps.losses_and_errors(points)
-            mask, best = jnp.zeros((), np.int32), cost[0]
-            for b, j in enumerate(nonneg):
-                c0 = cost[mask | (1 << b)]
-                ok = c0 <= threshold(best, n)
-                best = jnp.where(ok, jnp.minimum(c0, best), best)
-                mask = jnp.where(ok, mask | (1 << b), mask)
-                u = u.at[j].set(jnp.where(ok, 0, u[j]))
-            sq_err, max_err = sq_err[mask], max_err[mask]
+
+        if not (try_zero and nonneg):
+            u, z_end, best, sq_err, max_err = pick(ends, zs, cost, sq_err, max_err)
         else:
-            for j in nonneg:
-                c0 = ps.losses([u.at[j].set(0)])[0]
-                ok = c0 <= threshold(best, n)
-                best = jnp.where(ok, jnp.minimum(c0, best), best)
-                u = u.at[j].set(jnp.where(ok, 0, u[j]))
-            _, sq_err, max_err = (x[0] for x in ps.losses_and_errors([u]))
-        at_bound = []
-        for j, kind in enumerate(flat_kinds):
-            if kind == "nonnegative":
-                at_bound.append(u[j] == 0)
-            elif kind == "positive":
-                # exp(u) cannot reach 0; a parameter that ran towards it is on its bound
-                at_bound.append(jnp.exp(u[j]) < jnp.finfo(dtype).eps ** 1.5)
-            elif kind == "unit":
-                q = jax.nn.sigmoid(u[j])
-                at_bound.append((q < jnp.finfo(dtype).eps) | (q > 1 - jnp.finfo(dtype).eps))
+            u, z_end, best = pick(ends, zs, cost)
+            if len(nonneg) <= _SUBSETS_MAX:
+                # Each nonnegative parameter in turn is set to 0 where that fits as well
+                # (`threshold`, against the loss reached so far). Every way of zeroing them is
+                # evaluated in the one pass: bit b of a mask zeroes nonneg[b].
+                zeroed = np.zeros((2 ** len(nonneg), len(flat_kinds)), bool)
+                for mask in range(2 ** len(nonneg)):
+                    for b, j in enumerate(nonneg):
+                        zeroed[mask, j] = mask >> b & 1
+                points = jnp.where(zeroed, 0, u[None])  # one row per way of zeroing
+                cost, sq_err, max_err = ps.losses_and_errors(points)
+                mask, best = jnp.zeros((), np.int32), cost[0]
+                for b in range(len(nonneg)):
+                    c0 = cost[mask | (1 << b)]
+                    ok = c0 <= threshold(best, n)
+                    best = jnp.where(ok, jnp.minimum(c0, best), best)
+                    mask = jnp.where(ok, mask | (1 << b), mask)
+                u = jnp.where(jnp.asarray(zeroed)[mask], 0, u)
+                sq_err, max_err = sq_err[mask], max_err[mask]
             else:
-                at_bound.append(jnp.zeros((), bool))
-        final = from_u(u, values)
-        pvec = jnp.concatenate([final[p].reshape(-1) for p in free])
+                for j in nonneg:
+                    c0 = ps.losses(u.at[j].set(0)[None])[0]
+                    ok = c0 <= threshold(best, n)
+                    best = jnp.where(ok, jnp.minimum(c0, best), best)
+                    u = u.at[j].set(jnp.where(ok, 0, u[j]))
+                _, sq_err, max_err = (x[0] for x in ps.losses_and_errors(u[None]))
+        at_bound = by_kind(_on_bound, tuple(flat_kinds), u)
+        pvec = by_kind(to_param, tuple(flat_kinds), u)
         if is_lm:
             # the solver's J^T J and J^T r at its last point (a parameter snapped to its
             # bound above moved within the tolerances), taken to the parameters: J with
             # respect to them is J_z diag(dz/dp), z = u / scale
-            slope = scale * jnp.concatenate(
-                [param_slope(kinds[p], u[offsets[i] : offsets[i + 1]]) for i, p in enumerate(free)]
-            )
+            slope = scale * by_kind(param_slope, tuple(flat_kinds), u)
             # (at the end point beyond `z_eval`, J^T r by the solver's linear model)
             jtr_z = mid["jtr_z"] + mid["jtj_z"] @ (z_end - mid["z_eval"])
             jtj = mid["jtj_z"] / (slope[:, None] * slope[None, :])
@@ -608,7 +648,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         else:
             # model values, residuals and their Jacobian rows in one forward-mode pass
             def model_values(pv):
-                return spec.evaluate(d, split(pv, final)).astype(dtype), None
+                return spec.evaluate(d, split(pv, values)).astype(dtype), None
 
             f, _, f_rows = jacobian_rows(model_values, pvec)
             r_fin, dr_df = jax.jvp(ps.residual, (f,), (jnp.ones_like(f),))
@@ -617,25 +657,32 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
         # cosine between the residual vector and each Jacobian column, ignoring parameters
         # on their bound. optimistix's BFGS, for one, never stops at an exact optimum.
         rnorm = jnp.sqrt(2 * best)
-        cos = jnp.where(jnp.stack(at_bound), 0, gradient_cosines(jtj, jtr, rnorm))
+        cos = jnp.where(at_bound, 0, gradient_cosines(jtj, jtr, rnorm))
         grad_ok = jnp.all(jnp.isfinite(cos)) & (jnp.max(cos, initial=0) <= rtol)
         # ...or residuals at rounding level (an exact fit: the cosine is then noise)
         grad_ok = grad_ok | (best <= mid["exact_loss"])
         npos = n if loss != "absolute" else jnp.maximum(sums((target > 0).astype(dtype))[0], 1)
         out = dict(
             pvec=pvec,
-            result=mid["result"],
-            steps=mid["steps"],
-            start_finite=jnp.isfinite(mid["start_loss"]),
-            start_loss=mid["start_loss"],
             loss=best,
             jtj=jtj,
             max_rel=max_err,
             rms_rel=jnp.sqrt(sq_err / npos),
-            at_bound=jnp.stack(at_bound),
+            at_bound=at_bound,
             grad_ok=grad_ok,
         )
-        return _pack(out, int(offsets[-1]))
+        return _pack(out, _finish_layout(int(offsets[-1])), dtype)
+
+    def solve_outputs(mid):
+        """The outputs read off the solve alone, packed apart from `finish`'s (so that its
+        branches, below, do not each start with them: see `_read_in_order`)."""
+        out = dict(
+            result=mid["result"],
+            steps=mid["steps"],
+            start_finite=jnp.isfinite(mid["start_loss"]),
+            start_loss=mid["start_loss"],
+        )
+        return _pack(out, _SOLVE_LAYOUT, mid["start_loss"].dtype)
 
     each = jax.vmap if batched else (lambda fn: fn)
 
@@ -656,21 +703,20 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             )
 
         if not nonneg:
-            return fin(False)()
-        return jax.lax.cond(jnp.any(mid["try_zero"]), fin(True), fin(False))
+            packed = fin(False)()
+        else:
+            packed = jax.lax.cond(jnp.any(mid["try_zero"]), fin(True), fin(False))
+        return jnp.concatenate([packed, each(solve_outputs)(mid)], axis=-1)
 
     return run
 
 
-def _layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
+def _finish_layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
+    """Name and per-problem shape of each output `finish` packs, `k` free values."""
     return [
         ("pvec", (k,)),
         ("jtj", (k, k)),
         ("at_bound", (k,)),
-        ("result", ()),
-        ("steps", ()),
-        ("start_finite", ()),
-        ("start_loss", ()),
         ("loss", ()),
         ("max_rel", ()),
         ("rms_rel", ()),
@@ -678,33 +724,54 @@ def _layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
     ]
 
 
-def _pack(out: dict[str, Array], k: int) -> Array:
-    """All outputs of one problem as one float vector: one device-to-host transfer."""
-    dtype = out["loss"].dtype
-    return jnp.concatenate([jnp.ravel(out[name]).astype(dtype) for name, _ in _layout(k)])
+#: ...and of those packed from the solve alone, after them.
+_SOLVE_LAYOUT = [("result", ()), ("steps", ()), ("start_finite", ()), ("start_loss", ())]
 
 
-class _Unpacking:
-    """A jitted packed solve, returning numpy outputs by name (with any batch axes)."""
+def _layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
+    """Name and per-problem shape of every packed output, in order."""
+    return _finish_layout(k) + _SOLVE_LAYOUT
 
-    def __init__(self, fn: Callable, k: int):
-        self.fn, self.k = fn, k
 
-    def __call__(self, *args) -> dict[str, np.ndarray]:
+def _pack(out: dict[str, Array], layout: list[tuple[str, tuple[int, ...]]], dtype) -> Array:
+    """Outputs of one problem as one vector of the fit's float `dtype` (one transfer)."""
+    return jnp.concatenate([jnp.ravel(out[name]).astype(dtype) for name, _ in layout])
+
+
+class _OnHost:
+    """A jitted packed solve, returning its outputs as one numpy array (`_layout` along
+    the last axis, after any batch axis)."""
+
+    def __init__(self, fn: Callable):
+        self.fn = fn
+
+    def __call__(self, *args) -> np.ndarray:
         # + 0.0 turns -0.0 into 0.0: the solve's fast math (`_COMPILER_OPTIONS`) may drop
         # the sign of a zero, so a parameter on its bound could come back as -0.0
-        flat = np.asarray(self.fn(*args)) + 0.0
-        out, i = {}, 0
-        for name, shape in _layout(self.k):
-            size = math.prod(shape)
-            piece = flat[..., i : i + size].reshape((*flat.shape[:-1], *shape))
-            if name in ("result", "steps"):
-                piece = piece.astype(np.int64)
-            elif name in ("start_finite", "at_bound", "grad_ok"):
-                piece = piece.astype(bool)
-            out[name] = piece
-            i += size
-        return out
+        return np.asarray(self.fn(*args)) + 0.0
+
+
+@functools.cache
+def _slices(k: int) -> dict[str, slice]:
+    """Where each output of `_layout(k)` lies along the packed axis."""
+    out, i = {}, 0
+    for name, shape in _layout(k):
+        out[name] = slice(i, i + math.prod(shape))
+        i += math.prod(shape)
+    return out
+
+
+def _columns(flat: np.ndarray, k: int) -> dict[str, np.ndarray]:
+    """The packed outputs of a batch, by name, each with the batch axis first."""
+    out = {}
+    for name, shape in _layout(k):
+        piece = flat[:, _slices(k)[name]].reshape((len(flat), *shape))
+        if name in ("result", "steps"):
+            piece = piece.astype(np.int64)
+        elif name in ("start_finite", "at_bound", "grad_ok"):
+            piece = piece.astype(bool)
+        out[name] = piece
+    return out
 
 
 #: Problems per vmapped chunk in `fit_many`: chunks run one after another (`lax.map`), and
@@ -741,7 +808,7 @@ _COMPILED: dict[Any, Callable] = {}
 #: XLA options of every compiled solve: the CPU backend's fast math less what XLA keeps
 #: exact by default (NaN and infinity semantics, division, math functions), which leaves
 #: reassociation, contraction into FMAs, and ignoring the sign of zero (outputs are made
-#: +0.0 in `_Unpacking`). Reassociation lets LLVM vectorise the sums over the samples (a
+#: +0.0 in `_OnHost`). Reassociation lets LLVM vectorise the sums over the samples (a
 #: strict reduction is a chain of scalar adds): the compiled solve of 1,000 polynomial
 #: fits of 256 samples took 4.4-5.0 ms instead of 8.4-10.3. Results move within the
 #: tolerances: the 19 parameterised families fitted to their own curves over d from 1e-3
@@ -751,6 +818,27 @@ _COMPILED: dict[Any, Callable] = {}
 #: residuals are rounding noise rather than exact zeros (f / t - 1 is one FMA), which the
 #: solver's rounding-level loss (`exact_loss`) ends at once.
 _COMPILER_OPTIONS = {"xla_cpu_enable_fast_math": True}
+
+
+def _read_in_order(flat: Array) -> Array:
+    """`flat` as every kernel of a single fit reads it: after one reduction over it.
+
+    XLA's CPU runtime runs a compiled computation as a graph of small kernels, and hands
+    half of the ready ones to another thread whenever more than eight are ready at once.
+    A single fit is a few hundred kernels of microseconds each, so such a hand-off costs
+    more than the work it shares: one per call, at the start, where some fifteen kernels
+    read the inputs independently (slices, reciprocals, the candidates' setup), cost the
+    benchmark's polynomial fit 0.13 ms of its 0.19 ms compiled solve (measured with the
+    solve run inline, `jax_cpu_enable_async_dispatch=False`; 0.23 -> 0.19 ms dispatched as
+    by default). Reading the inputs through one reduction makes every reader wait for it,
+    so they become ready a few at a time. The same concern keeps the solve's other
+    independent pieces few and wide: the candidates are evaluated as one batch, the end
+    point's outputs picked in one selection, the constraints mapped as one vector.
+
+    The inputs are validated finite, so the selection never changes them (a non-finite
+    one would make every input NaN).
+    """
+    return jnp.where(jnp.max(jnp.abs(flat)) < jnp.inf, flat, jnp.nan)
 
 
 def _unflatten_inputs(
@@ -798,16 +886,14 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, d
             else solver
         )
         run = _build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched)
-        k = sum(math.prod(spec.shapes[spec.names.index(p)]) for p in free)
-
         if batched:
             fn = jax.jit(_chunked(run, _CHUNK), compiler_options=_COMPILER_OPTIONS)
         else:
             fn = jax.jit(
-                lambda flat: run(*_unflatten_inputs(spec, flat, weighted)),
+                lambda flat: run(*_unflatten_inputs(spec, _read_in_order(flat), weighted)),
                 compiler_options=_COMPILER_OPTIONS,
             )
-        fn = _Unpacking(fn, k)
+        fn = _OnHost(fn)
         _COMPILED[key] = fn
     return fn
 
@@ -994,48 +1080,70 @@ class FitResult:
 
 def _field_value(v: np.ndarray, dtype) -> Any:
     """A fitted family field: a Python float for a scalar, else an array of the fit's dtype."""
-    return float(v) if np.ndim(v) == 0 else jnp.asarray(v, dtype)
+    return v if isinstance(v, float) else float(v) if np.ndim(v) == 0 else jnp.asarray(v, dtype)
 
 
 def _python_value(v: np.ndarray) -> Any:
     return float(v) if v.ndim == 0 else v.tolist()
 
 
+@functools.cache
+def _dtype_name(dtype: np.dtype) -> str:
+    return np.dtype(dtype).name
+
+
+@functools.lru_cache(maxsize=256)
+def _free_values(spec: _Spec, free: tuple[str, ...]) -> tuple[str, ...]:
+    """The name of each fitted value, in `free` order (an array parameter once per element)."""
+    shapes = dict(zip(spec.names, spec.shapes, strict=True))
+    return tuple(p for p in free for _ in range(math.prod(shapes[p])))
+
+
+def _free_size(spec: _Spec, free: tuple[str, ...]) -> int:
+    """The number of fitted values: the free parameters' sizes summed."""
+    return len(_free_values(spec, free))
+
+
+@functools.lru_cache(maxsize=256)
+def _free_slices(spec: _Spec, free: tuple[str, ...]) -> dict[str, slice]:
+    """Where each free parameter's values lie in the fitted vector (`free` order)."""
+    names = _free_values(spec, free)
+    return {p: slice(names.index(p), len(names) - names[::-1].index(p)) for p in free}
+
+
 def _make_result(
-    spec, template, values, free, out, i, n, loss_kind, solver_name, dtype
+    spec, template, values, free, row, i, n, loss_kind, solver_name, dtype
 ) -> FitResult:
-    """One FitResult from the (possibly batched) numpy outputs `out` at index `i`."""
-    pick = (lambda a: a) if i is None else (lambda a: a[i])
-    index = {nm: j for j, nm in enumerate(spec.names)}
-    pvec = np.asarray(pick(out["pvec"]))
-    params = {}
-    fitted = {}
-    off = 0
-    for nm in spec.names:
-        v = (
-            np.asarray(pick(values[nm]))
-            if i is not None and np.ndim(values[nm]) > len(spec.shapes[index[nm]])
-            else np.asarray(values[nm])
-        )
+    """One FitResult from one problem's packed outputs `row` (`_layout`); `i`: the
+    problem's index in batched `values`, or None."""
+    k = _free_size(spec, free)
+    at = _slices(k)
+    out = row.tolist()
+    pvec = out[at["pvec"]]
+    where = _free_slices(spec, free)
+    params, fitted = {}, {}
+    for nm, shape in zip(spec.names, spec.shapes, strict=True):
         if nm in free:
-            size = math.prod(spec.shapes[index[nm]])
-            v = pvec[off : off + size].reshape(spec.shapes[index[nm]])
-            off += size
-        fitted[nm] = v
-        params[nm] = _python_value(v)
-    flat_names = [p for p in free for _ in range(math.prod(spec.shapes[index[p]]))]
-    bound_flags = np.asarray(pick(out["at_bound"]))
-    at_bound = tuple(dict.fromkeys(p for p, b in zip(flat_names, bound_flags, strict=True) if b))
-    code = int(pick(out["result"]))
-    loss = float(pick(out["loss"]))
+            if shape == ():
+                params[nm] = fitted[nm] = pvec[where[nm].start]
+            else:
+                fitted[nm] = np.asarray(pvec[where[nm]]).reshape(shape)
+                params[nm] = fitted[nm].tolist()
+        else:
+            v = values[nm]
+            v = np.asarray(v[i] if i is not None and np.ndim(v) > len(shape) else v)
+            fitted[nm] = v
+            params[nm] = _python_value(v)
+    bound = zip(_free_values(spec, free), out[at["at_bound"]], strict=True)
+    at_bound = tuple(dict.fromkeys(p for p, b in bound if b))
+    (code,), (loss,) = out[at["result"]], out[at["loss"]]
     converged, message = _message(
-        code, bool(pick(out["start_finite"])), loss, at_bound, bool(pick(out["grad_ok"]))
+        int(code), bool(out[at["start_finite"]][0]), loss, at_bound, bool(out[at["grad_ok"]][0])
     )
-    k = len(pvec)
     metrics = {
-        "max_rel_error": float(pick(out["max_rel"])),
-        "rms_rel_error": float(pick(out["rms_rel"])),
-        "start_loss": float(pick(out["start_loss"])),
+        "max_rel_error": out[at["max_rel"]][0],
+        "rms_rel_error": out[at["rms_rel"]][0],
+        "start_loss": out[at["start_loss"]][0],
         "n": n,
         "k": k,
     }
@@ -1048,15 +1156,15 @@ def _make_result(
         params=params,
         converged=converged,
         message=message,
-        steps=int(pick(out["steps"])),
+        steps=int(out[at["steps"]][0]),
         loss=loss,
         metrics=metrics,
-        normal_matrix=np.asarray(pick(out["jtj"])),
+        normal_matrix=np.array(row[at["jtj"]]).reshape(k, k),
         free=free,
         at_bound=at_bound,
         objective=loss_kind,
         solver=solver_name,
-        dtype=np.dtype(dtype).name,
+        dtype=_dtype_name(dtype),
     )
 
 
@@ -1176,20 +1284,17 @@ class FitResults(Sequence):
     leading batch axis), `converged`, `steps` and `loss` are arrays over the batch.
     """
 
-    def __init__(self, spec, template, values, free, out, n, loss_kind, solver_name, dtype):
-        self._args = (spec, template, values, free, out, n, loss_kind, solver_name, dtype)
+    def __init__(self, spec, template, values, free, flat, n, loss_kind, solver_name, dtype):
+        self._args = (spec, template, values, free, flat, n, loss_kind, solver_name, dtype)
+        out = _columns(flat, _free_size(spec, free))
         self._out = out
         self.free = free
         batch = len(out["loss"])
-        index = {nm: j for j, nm in enumerate(spec.names)}
+        where = _free_slices(spec, free)
         self.params: dict[str, np.ndarray] = {}
-        off = 0
-        for nm in spec.names:
-            shape = spec.shapes[index[nm]]
+        for nm, shape in zip(spec.names, spec.shapes, strict=True):
             if nm in free:
-                size = math.prod(shape)
-                self.params[nm] = out["pvec"][:, off : off + size].reshape((batch, *shape))
-                off += size
+                self.params[nm] = out["pvec"][:, where[nm]].reshape((batch, *shape))
             else:
                 self.params[nm] = np.broadcast_to(values[nm], (batch, *shape))
         codes = out["result"]
@@ -1206,12 +1311,12 @@ class FitResults(Sequence):
         if isinstance(i, slice):
             return [self[j] for j in range(*i.indices(len(self)))]
         i = range(len(self))[i]
-        spec, template, values, free, out, n, loss_kind, solver_name, dtype = self._args
+        spec, template, values, free, flat, n, loss_kind, solver_name, dtype = self._args
         if isinstance(template, Family):
             one = _rebuild(spec, template, [np.asarray(values[nm][i]) for nm in spec.names])
         else:
             one = (template[0], {nm: values[nm][i] for nm in spec.names})
-        return _make_result(spec, one, values, free, out, i, n, loss_kind, solver_name, dtype)
+        return _make_result(spec, one, values, free, flat[i], i, n, loss_kind, solver_name, dtype)
 
     def __repr__(self) -> str:
         return f"FitResults({len(self)} fits, {int(self.converged.sum())} converged)"

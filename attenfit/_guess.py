@@ -39,17 +39,23 @@ INVERSE_LINEAR: dict[str, tuple[_Basis, dict[str, _Basis]]] = {
 
 
 def scale_candidates(
-    start: Mapping[str, Array], free_lengths: tuple[str, ...]
-) -> list[dict[str, Array]]:
-    """The start with all free length parameters multiplied by each factor in `SCALES`."""
+    start: Mapping[str, Array], free: tuple[str, ...], free_lengths: tuple[str, ...]
+) -> dict[str, Array]:
+    """The start with all free length parameters multiplied by each factor in `SCALES`.
+
+    Returns the free parameters' values stacked, one row per factor (`{}` when no length
+    parameter is free): each parameter is one product with the factors, not one per factor.
+    """
     if not free_lengths:
-        return []
-    out = []
-    for s in SCALES:
-        cand = dict(start)
-        for name in free_lengths:
-            cand[name] = start[name] * s
-        out.append(cand)
+        return {}
+    out = {}
+    for name in free:
+        value = jnp.asarray(start[name])
+        if name in free_lengths:
+            factors = jnp.asarray(SCALES, value.dtype).reshape((-1,) + (1,) * value.ndim)
+            out[name] = value * factors
+        else:
+            out[name] = jnp.broadcast_to(value, (len(SCALES), *value.shape))
     return out
 
 

@@ -24,11 +24,14 @@ All maps are elementwise, dtype-preserving, and have finite derivatives everywhe
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-__all__ = ["param_slope", "to_internal", "to_param"]
+__all__ = ["by_kind", "param_slope", "to_internal", "to_param"]
 
 
 def to_param(kind: str, u: Float[Array, "*s"]) -> Float[Array, "*s"]:
@@ -71,3 +74,19 @@ def to_internal(kind: str, p: Float[ArrayLike, "*s"]) -> Float[Array, "*s"]:
         q = jnp.clip(p, eps, 1 - eps)
         return jnp.log(q) - jnp.log1p(-q)
     return p
+
+
+def by_kind(
+    fn: Callable[[str, Array], Array], kinds: tuple[str, ...], u: Float[Array, " k"]
+) -> Array:
+    """`fn(kinds[i], u[i])` for every coordinate of `u`, as one elementwise expression.
+
+    Each kind's map is evaluated on every coordinate and the right one selected, so this is
+    for values only: under differentiation an unselected map that overflows (`exp`) would
+    turn the gradient into NaN.
+    """
+    out = fn("real", u)
+    for kind in sorted(set(kinds) - {"real"}):
+        mask = np.array([k == kind for k in kinds])
+        out = jnp.where(mask, fn(kind, u), out)
+    return out

@@ -82,9 +82,10 @@ def sums(*xs: Float[Array, " n"]) -> tuple[Scalar, ...]:
 
 
 def reduce_samples(
-    sum_of: Sequence[Float[Array, " n"]], max_of: Sequence[Float[Array, " n"]] = ()
-) -> tuple[Scalar, ...]:
-    """The sums of the arrays `sum_of`, then the maxima of `max_of`, as one reduction.
+    sum_of: Sequence[Float[Array, "*m n"]], max_of: Sequence[Float[Array, "*m n"]] = ()
+) -> tuple[Float[Array, "*m"], ...]:
+    """The sums of the arrays `sum_of`, then the maxima of `max_of`, as one reduction
+    over their last axis (the samples; leading axes are kept).
 
     One variadic `lax.reduce`: XLA's CPU backend fuses it with the elementwise work that
     produces its operands into one loop over the samples, where separate `jnp.sum`s are
@@ -104,7 +105,7 @@ def reduce_samples(
             u + v if i < m else jax.lax.max(u, v) for i, (u, v) in enumerate(zip(a, b, strict=True))
         )
 
-    return jax.lax.reduce(xs, init, combine, (0,))
+    return jax.lax.reduce(xs, init, combine, (xs[0].ndim - 1,))
 
 
 def gram(

@@ -16,7 +16,8 @@ the final losses (0.5 sum r^2) so "as fast" never means "less converged". Median
 repeats (wall clock, best of the repeats, and process CPU time: the machine is shared, so
 wall times vary with its load), and ratios measured in the same run, the two sides timed
 in turns so that a change of load hits both. `taskset -c 0 python -m benchmarks fit` runs
-it on one core: a single fit's compiled solve is then not handed between XLA's threads.
+it on one core, where nothing is handed between threads (JAX's asynchronous dispatch of each
+call to XLA's worker thread included).
 """
 
 from __future__ import annotations

@@ -326,6 +326,66 @@ def test_sums_and_maxima_in_one_reduction():
     assert all(np.isnan(v) for v in reduce_samples([jnp.asarray(y)], [jnp.asarray(y)]))
 
 
+def test_sums_and_maxima_over_the_last_axis_keep_leading_axes():
+    from attenfit._solvers import reduce_samples
+
+    x = np.random.default_rng(4).normal(size=(3, 50))
+    s, m = reduce_samples([jnp.asarray(x)], [jnp.asarray(x)])
+    np.testing.assert_allclose(s, x.sum(axis=1), rtol=1e-12)
+    np.testing.assert_array_equal(m, x.max(axis=1))
+
+
+def test_maps_by_kind_match_each_coordinate_mapped_alone():
+    from attenfit._reparam import by_kind, param_slope, to_param
+
+    kinds = ("positive", "real", "nonnegative", "unit", "positive")
+    u = jnp.array([-1.5, -2.0, -0.25, 0.3, 2.0])
+    for fn in (to_param, param_slope):
+        want = [float(fn(k, u[i])) for i, k in enumerate(kinds)]
+        np.testing.assert_allclose(by_kind(fn, kinds, u), want, rtol=1e-15)
+    # one coordinate per kind, on and off its bound
+    on = by_kind(_fit._on_bound, ("nonnegative", "positive", "unit", "real"), jnp.zeros(4))
+    np.testing.assert_array_equal(on, [True, False, False, False])
+    far = jnp.array([1.0, -200.0, 60.0, -1e300])
+    on = by_kind(_fit._on_bound, ("nonnegative", "positive", "unit", "real"), far)
+    np.testing.assert_array_equal(on, [False, True, True, False])
+
+
+def test_scale_candidates_scale_only_the_free_lengths():
+    from attenfit._guess import SCALES, scale_candidates
+
+    start = {"r": jnp.asarray(0.5), "eps": jnp.asarray(2.0), "fixed": jnp.asarray(7.0)}
+    got = scale_candidates(start, ("r", "eps"), ("r",))
+    assert set(got) == {"r", "eps"}
+    np.testing.assert_allclose(got["r"], 0.5 * np.array(SCALES), rtol=1e-15)
+    np.testing.assert_array_equal(got["eps"], np.full(len(SCALES), 2.0))
+    assert scale_candidates(start, ("eps",), ()) == {}
+
+
+def test_free_parameters_named_out_of_the_models_order():
+    # `free` in another order than the family's fields: each parameter still gets its own
+    # value, and the covariance follows `free`.
+    target = 1 / (2.0 + 3.0 * D * D)
+    start = af.Polynomial(kc=1.0, kl=0.0, kq=1.0)
+    ab = af.fit(start, D, target * (1 + 0.01 * np.sin(D)), free=("kc", "kq"))
+    ba = af.fit(start, D, target * (1 + 0.01 * np.sin(D)), free=("kq", "kc"))
+    assert ba.free == ("kq", "kc")
+    for p in ("kc", "kq"):
+        np.testing.assert_allclose(ba.params[p], ab.params[p], rtol=1e-9)
+        np.testing.assert_allclose(ba.stderr[p], ab.stderr[p], rtol=1e-6)
+    np.testing.assert_allclose(ba.covariance, ab.covariance[::-1, ::-1], rtol=1e-6)
+    exact = af.fit(start, D, target, free=["kq", "kc"])
+    np.testing.assert_allclose([exact.params["kc"], exact.params["kq"]], [2.0, 3.0], rtol=1e-9)
+    many = af.fit_many(
+        af.Polynomial(kc=np.ones(2), kl=np.zeros(2), kq=np.ones(2)),
+        D,
+        np.stack([target, target]),
+        free=("kq", "kc"),
+    )
+    np.testing.assert_allclose(many.params["kc"], [2.0, 2.0], rtol=1e-9)
+    np.testing.assert_allclose(many[1].params["kq"], 3.0, rtol=1e-9)
+
+
 def test_float32_fit_works_and_says_so():
     d32 = D.astype(np.float32)
     target = yuksel_np(D, 0.7).astype(np.float32)
