@@ -412,8 +412,7 @@ def _on_bound(kind: str, u: Array) -> Array:
 def _flat_kinds(spec: _Spec, free: tuple[str, ...]) -> list[str]:
     """The constraint of each fitted value, free parameters flattened in order."""
     kinds = dict(zip(spec.names, spec.kinds, strict=True))
-    shapes = dict(zip(spec.names, spec.shapes, strict=True))
-    return [kinds[p] for p in free for _ in range(math.prod(shapes[p]))]
+    return [kinds[p] for p in _free_values(spec, free)]
 
 
 #: Up to this many free nonnegative parameters are tried at 0 in the fit's final pass over
@@ -437,9 +436,8 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
     problem of the batch may have its optimum there.
     """
     of_values = _residual_of_values(loss)
-    index = {n: i for i, n in enumerate(spec.names)}
-    sizes = [math.prod(spec.shapes[index[p]]) for p in free]
-    offsets = np.cumsum([0, *sizes])
+    shapes = dict(zip(spec.names, spec.shapes, strict=True))
+    where = _free_slices(spec, free)  # each free parameter's place in the fitted vector
     kinds = dict(zip(spec.names, spec.kinds, strict=True))
     free_lengths = tuple(p for p in spec.length_params if p in free and kinds[p] == "positive")
     flat_kinds = _flat_kinds(spec, free)
@@ -449,8 +447,8 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
 
     def split(vec, values):
         out = dict(values)
-        for i, p in enumerate(free):
-            out[p] = vec[offsets[i] : offsets[i + 1]].reshape(spec.shapes[index[p]])
+        for p in free:
+            out[p] = vec[where[p]].reshape(shapes[p])
         return out
 
     def to_u(blocks):
@@ -466,9 +464,8 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
 
     def from_u(u, values):
         out = dict(values)
-        for i, p in enumerate(free):
-            piece = u[offsets[i] : offsets[i + 1]].reshape(spec.shapes[index[p]])
-            out[p] = to_param(kinds[p], piece)
+        for p in free:
+            out[p] = to_param(kinds[p], u[where[p]].reshape(shapes[p]))
         return out
 
     def inverse(target):
@@ -671,7 +668,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             at_bound=at_bound,
             grad_ok=grad_ok,
         )
-        return _pack(out, _finish_layout(int(offsets[-1])), dtype)
+        return _pack(out, _finish_layout(len(flat_kinds)), dtype)
 
     def solve_outputs(mid):
         """The outputs read off the solve alone, packed apart from `finish`'s (so that its
@@ -1107,8 +1104,12 @@ def _free_size(spec: _Spec, free: tuple[str, ...]) -> int:
 @functools.lru_cache(maxsize=256)
 def _free_slices(spec: _Spec, free: tuple[str, ...]) -> dict[str, slice]:
     """Where each free parameter's values lie in the fitted vector (`free` order)."""
-    names = _free_values(spec, free)
-    return {p: slice(names.index(p), len(names) - names[::-1].index(p)) for p in free}
+    shapes = dict(zip(spec.names, spec.shapes, strict=True))
+    out, i = {}, 0
+    for p in free:
+        out[p] = slice(i, i + math.prod(shapes[p]))
+        i = out[p].stop
+    return out
 
 
 def _make_result(
