@@ -737,15 +737,25 @@ def _pack(out: dict[str, Array], layout: list[tuple[str, tuple[int, ...]]], dtyp
 
 class _OnHost:
     """A jitted packed solve, returning its outputs as one numpy array (`_layout` along
-    the last axis, after any batch axis)."""
+    the last axis, after any batch axis).
 
-    def __init__(self, fn: Callable):
-        self.fn = fn
+    A float32 solve is traced and run with JAX's x64 mode off, as JAX runs float32 by
+    default, whatever the caller's mode: with it on, optimistix's dogleg mixes float64 into
+    a float32 solve and fails to trace (its `newton_norm` and `cauchy_norm` state).
+    """
+
+    def __init__(self, fn: Callable, dtype: np.dtype):
+        self.fn, self.x64 = fn, np.dtype(dtype).itemsize == 8
 
     def __call__(self, *args) -> np.ndarray:
+        if self.x64:
+            out = self.fn(*args)
+        else:
+            with jax.enable_x64(False):
+                out = self.fn(*args)
         # + 0.0 turns -0.0 into 0.0: the solve's fast math (`_COMPILER_OPTIONS`) may drop
         # the sign of a zero, so a parameter on its bound could come back as -0.0
-        return np.asarray(self.fn(*args)) + 0.0
+        return np.asarray(out) + 0.0
 
 
 @functools.cache
@@ -890,7 +900,7 @@ def _compiled(spec, free, loss, solver, max_steps, rtol, atol, guess, batched, d
                 lambda flat: run(*_unflatten_inputs(spec, _read_in_order(flat), weighted)),
                 compiler_options=_COMPILER_OPTIONS,
             )
-        fn = _OnHost(fn)
+        fn = _OnHost(fn, dtype)
         _COMPILED[key] = fn
     return fn
 

@@ -126,8 +126,8 @@ def fitting() -> None:
             m = jax.tree.map(lambda v, dtype=dtype: np.asarray(v, dtype), model)
 
             def run(dd=dd, tt=tt, m=m, solver=solver, x64=dtype == np.float64):
-                # float32 as users run it: default JAX (x64 off). With x64 on, float32 fits
-                # with levenberg_marquardt and dogleg fail inside optimistix (float64 damping).
+                # float32 as users run it: default JAX (x64 off); `fit` runs a float32
+                # solve with x64 off in either mode.
                 with jax.enable_x64(x64):
                     return af.fit(m, dd, tt, solver=solver, free=("kc", "kl", "kq"))
 

@@ -396,6 +396,19 @@ def test_float32_fit_works_and_says_so():
     assert res.model(jnp.asarray(d32)).dtype == jnp.float32
 
 
+def test_float32_fit_with_dogleg_while_x64_is_on():
+    # The tests run with JAX's x64 mode on; optimistix's dogleg then mixed float64 into a
+    # float32 solve and failed to trace (a TypeError, not a result). A float32 solve runs
+    # with x64 off, as JAX runs float32 by default.
+    d32 = D.astype(np.float32)
+    target = (1 / (2.0 + 0.5 * D + 3.0 * D * D)).astype(np.float32)
+    res = af.fit(af.Polynomial(kc=1.0, kl=1.0, kq=1.0), d32, target, solver="dogleg")
+    assert res.dtype == "float32" and res.converged, res.message
+    np.testing.assert_allclose(
+        [res.params[p] for p in ("kc", "kl", "kq")], [2.0, 0.5, 3.0], rtol=1e-3
+    )
+
+
 @pytest.mark.parametrize("dtype", ["float32", "float64"])
 def test_compiled_solve_options_keep_the_answer(monkeypatch, dtype):
     """The solve is compiled with XLA's reassociating fast math (`_COMPILER_OPTIONS`); at
