@@ -647,7 +647,7 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
             def model_values(pv):
                 return spec.evaluate(d, split(pv, values)).astype(dtype), None
 
-            f, _, f_rows = jacobian_rows(model_values, pvec)
+            f, _, f_rows = jacobian_rows(model_values, pvec, batched=batched)
             r_fin, dr_df = jax.jvp(ps.residual, (f,), (jnp.ones_like(f),))
             jtj, jtr = gram([dr_df * row.astype(dtype) for row in f_rows], r_fin, batched)
         # First-order optimality (MINPACK's gtol test, as scipy's least_squares): the
