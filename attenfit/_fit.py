@@ -409,10 +409,10 @@ def _on_bound(kind: str, u: Array) -> Array:
     return jnp.zeros(u.shape, bool)
 
 
-def _flat_kinds(spec: _Spec, free: tuple[str, ...]) -> list[str]:
+def _flat_kinds(spec: _Spec, free: tuple[str, ...]) -> tuple[str, ...]:
     """The constraint of each fitted value, free parameters flattened in order."""
     kinds = dict(zip(spec.names, spec.kinds, strict=True))
-    return [kinds[p] for p in _free_values(spec, free)]
+    return tuple(kinds[p] for p in _free_values(spec, free))
 
 
 #: Up to this many free nonnegative parameters are tried at 0 in the fit's final pass over
@@ -631,13 +631,13 @@ def _build_problem(spec: _Spec, free, loss, solver_obj, max_steps, guess, rtol, 
                     best = jnp.where(ok, jnp.minimum(c0, best), best)
                     u = u.at[j].set(jnp.where(ok, 0, u[j]))
                 _, sq_err, max_err = (x[0] for x in ps.losses_and_errors(u[None]))
-        at_bound = by_kind(_on_bound, tuple(flat_kinds), u)
-        pvec = by_kind(to_param, tuple(flat_kinds), u)
+        at_bound = by_kind(_on_bound, flat_kinds, u)
+        pvec = by_kind(to_param, flat_kinds, u)
         if is_lm:
             # the solver's J^T J and J^T r at its last point (a parameter snapped to its
             # bound above moved within the tolerances), taken to the parameters: J with
             # respect to them is J_z diag(dz/dp), z = u / scale
-            slope = scale * by_kind(param_slope, tuple(flat_kinds), u)
+            slope = scale * by_kind(param_slope, flat_kinds, u)
             # (at the end point beyond `z_eval`, J^T r by the solver's linear model)
             jtr_z = mid["jtr_z"] + mid["jtj_z"] @ (z_end - mid["z_eval"])
             jtj = mid["jtj_z"] / (slope[:, None] * slope[None, :])
