@@ -2,8 +2,13 @@
 
 Differentiable attenuation families in JAX, exact ground-truth irradiance from spherical,
 disk and capsule emitters, least-squares fits with optimistix, and reports of the
-speed/accuracy trade. The public API is re-exported here; implementation lives in private
-modules, one concept each.
+speed/accuracy trade.
+
+The public API is re-exported here, grouped by pipeline stage. The implementation lives in
+one private subpackage per stage, each importing only the stages below it: `_curves`,
+`_truth`, `_fit`, `_shaders`, `_report`, `_scenes`, with the command line (`cli`, `_cli`)
+on top (docs/architecture.md). The public modules (`attenfit.families`, `attenfit.parts`,
+`attenfit.cost`, ...) re-export their stage's names.
 """
 
 from ._errors import AttenfitError as AttenfitError
@@ -12,53 +17,56 @@ from ._errors import BadValueError as BadValueError
 from ._errors import DataFileError as DataFileError
 from ._errors import OutputExistsError as OutputExistsError
 from ._errors import UnknownNameError as UnknownNameError
-from ._family import Family as Family
-from ._family import get_family as get_family
-from ._family import list_families as list_families
-from ._family import register_family as register_family
+from ._curves import Family as Family
+from ._curves import get_family as get_family
+from ._curves import list_families as list_families
+from ._curves import register_family as register_family
+from ._version import __version__ as __version__
 
 
-# Families: the attenuation curves and the spotlight directional factors.
+# Curves: the attenuation families, the parts they are built from, spotlight falloffs.
 from . import directional as directional
 from . import families as families
-from ._family import family_from_function as family_from_function
-from .directional import lambert_disk as lambert_disk
-from .directional import spot_frostbite as spot_frostbite
-from .directional import spot_t as spot_t
-from .directional import spot_threejs as spot_threejs
-from .families import Clamped as Clamped
-from .families import CryEngineLinear as CryEngineLinear
-from .families import DiskFacing as DiskFacing
-from .families import FrostbiteWindow as FrostbiteWindow
-from .families import GltfRange as GltfRange
-from .families import Godot as Godot
-from .families import InverseSquare as InverseSquare
-from .families import JustCause2 as JustCause2
-from .families import MadamsCutoff as MadamsCutoff
-from .families import MadamsRational as MadamsRational
-from .families import MadamsSphere as MadamsSphere
-from .families import MadamsTan as MadamsTan
-from .families import Polynomial as Polynomial
-from .families import Spline as Spline
-from .families import ThreeJS as ThreeJS
-from .families import UnrealEpsilon as UnrealEpsilon
-from .families import UnrealExponent as UnrealExponent
-from .families import UnrealWindow as UnrealWindow
-from .families import Yuksel as Yuksel
-from .families import YukselAdhoc as YukselAdhoc
+from . import parts as parts
+from ._curves import family_from_function as family_from_function
+from ._curves import lambert_disk as lambert_disk
+from ._curves import spot_frostbite as spot_frostbite
+from ._curves import spot_t as spot_t
+from ._curves import spot_threejs as spot_threejs
+from ._curves import Clamped as Clamped
+from ._curves import CryEngineLinear as CryEngineLinear
+from ._curves import DiskFacing as DiskFacing
+from ._curves import FrostbiteWindow as FrostbiteWindow
+from ._curves import GltfRange as GltfRange
+from ._curves import Godot as Godot
+from ._curves import InverseSquare as InverseSquare
+from ._curves import JustCause2 as JustCause2
+from ._curves import MadamsCutoff as MadamsCutoff
+from ._curves import MadamsRational as MadamsRational
+from ._curves import MadamsSphere as MadamsSphere
+from ._curves import MadamsTan as MadamsTan
+from ._curves import Polynomial as Polynomial
+from ._curves import Spline as Spline
+from ._curves import ThreeJS as ThreeJS
+from ._curves import UnrealEpsilon as UnrealEpsilon
+from ._curves import UnrealExponent as UnrealExponent
+from ._curves import UnrealWindow as UnrealWindow
+from ._curves import Yuksel as Yuksel
+from ._curves import YukselAdhoc as YukselAdhoc
 
 # Ground truth: emitters, exact irradiance, quadrature, datasets.
+from . import emitters as emitters
 from . import quadrature as quadrature
-from ._dataset import Dataset as Dataset
-from ._dataset import facing_sweep as facing_sweep
-from ._dataset import plane_receivers as plane_receivers
-from ._dataset import random_receivers as random_receivers
-from ._irradiance import irradiance as irradiance
-from .emitters import AbstractEmitter as AbstractEmitter
-from .emitters import CapsuleEmitter as CapsuleEmitter
-from .emitters import DiskEmitter as DiskEmitter
-from .emitters import SphereEmitter as SphereEmitter
-from .emitters import emitter_from_dict as emitter_from_dict
+from ._truth import Dataset as Dataset
+from ._truth import facing_sweep as facing_sweep
+from ._truth import plane_receivers as plane_receivers
+from ._truth import random_receivers as random_receivers
+from ._truth import irradiance as irradiance
+from ._truth import AbstractEmitter as AbstractEmitter
+from ._truth import CapsuleEmitter as CapsuleEmitter
+from ._truth import DiskEmitter as DiskEmitter
+from ._truth import SphereEmitter as SphereEmitter
+from ._truth import emitter_from_dict as emitter_from_dict
 
 # Fitting.
 from ._fit import LOSSES as LOSSES
@@ -72,29 +80,28 @@ from ._fit import fit_many as fit_many
 # Metrics and the comparison report.
 from . import metrics as metrics
 from . import plots as plots
-from .report import Report as Report
-from .report import build_report as build_report
+from . import report as report
+from ._report import Report as Report
+from ._report import build_report as build_report
 
 # Scene files and recommendations.
 from . import scene as scene
-from ._recommend import Candidate as Candidate
-from ._recommend import Recommendation as Recommendation
-from ._recommend import recommend as recommend
-from .scene import Scene as Scene
+from ._scenes import Candidate as Candidate
+from ._scenes import Recommendation as Recommendation
+from ._scenes import recommend as recommend
+from ._scenes import Scene as Scene
 
 # Cost and shader export. `attenfit.export` is the module; its function is
 # `attenfit.export.export`, also available as `attenfit.export_function`.
 from . import cost as cost
 from . import export as export
-from .cost import Cost as Cost
-from .cost import ParetoFront as ParetoFront
-from .cost import cheapest_within as cheapest_within
-from .cost import cost_table as cost_table
-from .cost import count_ops as count_ops
-from .cost import family_cost as family_cost
-from .cost import pareto_front as pareto_front
-from .cost import plot_cost_vs_error as plot_cost_vs_error
-from .cost import shader_cost as shader_cost
-from .export import export as export_function  # noqa: F401 (public alias)
-
-__version__ = "0.1.0"
+from ._shaders import Cost as Cost
+from ._shaders import ParetoFront as ParetoFront
+from ._shaders import cheapest_within as cheapest_within
+from ._shaders import cost_table as cost_table
+from ._shaders import count_ops as count_ops
+from ._shaders import family_cost as family_cost
+from ._shaders import pareto_front as pareto_front
+from ._report import plot_cost_vs_error as plot_cost_vs_error
+from ._shaders import shader_cost as shader_cost
+from ._shaders import export as export_function  # noqa: F401 (public alias)

@@ -18,7 +18,7 @@ import numpy as np
 
 import attenfit
 from attenfit import cost
-from attenfit._trace import trace
+from attenfit._shaders import trace
 
 from .timing import median_seconds
 

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 
 import attenfit
-from attenfit import _parts as parts
+from attenfit import parts
 
 from .timing import median_seconds
 

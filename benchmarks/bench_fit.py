@@ -31,7 +31,7 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 
 import attenfit as af  # noqa: E402
-from attenfit import _fit  # noqa: E402
+from attenfit._fit import _compile  # noqa: E402
 
 N = 256
 TOL = 1e-8
@@ -205,7 +205,7 @@ def bench_compile() -> None:
     cases += [("yuksel", "levenberg_marquardt"), ("frostbite_window", "levenberg_marquardt")]
     for family, solver in cases:
         model = af.get_family(family)()
-        _fit._COMPILED.clear()
+        _compile._COMPILED.clear()
         jax.clear_caches()
         t0, c0 = time.perf_counter(), time.process_time()
         af.fit(model, d, t, solver=solver)

@@ -67,7 +67,7 @@ def _numpy_sphere_frostbite(c, r, p, n):
 
 def main() -> None:
     import attenfit as af
-    from attenfit import _irradiance
+    from attenfit._truth import _irradiance
 
     x64_before = jax.config.jax_enable_x64
     jax.config.update("jax_enable_x64", True)

@@ -4,7 +4,7 @@ The default report fits 20 families on 2 configurations. `attenfit.fit_many` bat
 problems of one family, so the plain way compiles one Levenberg-Marquardt solve per family
 (~3 s of CPU each on the reference machine); the report packs every (family, configuration)
 problem into one `fit_many` call with a `lax.switch` over families
-(`attenfit._report_fit.fit_all`), compiling once. This benchmark times both, in fresh
+(`attenfit._report._fit_all.fit_all`), compiling once. This benchmark times both, in fresh
 processes (so that no compilation is cached), on `FAMILIES` and the two default emitters,
 and checks that they reach the same fitted parameters. It also times `build_report` on
 those families stage by stage, and the figures.
@@ -28,8 +28,10 @@ import json, sys, time
 import numpy as np
 import jax
 from attenfit import get_family, fit_many
-from attenfit.report import _emitter_config, default_emitters, published_params, _range_of
-from attenfit._report_fit import fit_all
+from attenfit._report._configs import emitter_config as _emitter_config
+from attenfit._report._published import range_of as _range_of
+from attenfit.report import default_emitters, published_params
+from attenfit._report._fit_all import fit_all
 
 mode, names = sys.argv[1], sys.argv[2].split(",")
 with jax.enable_x64(True):

@@ -23,9 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from attenfit import Dataset
+from attenfit import BadValueError, DataFileError, Dataset
 from attenfit._atomic import atomic_write, check_output_path
-from attenfit._errors import BadValueError, DataFileError
 
 from .estimate import Estimate, estimate_detail
 from .render import dataset_from_estimate, fingerprint, occluder_for, unit_receivers

@@ -54,7 +54,7 @@ from typing import NamedTuple
 import numpy as np
 from jaxtyping import Float
 
-from attenfit._errors import BadTypeError, BadValueError
+from attenfit import BadTypeError, BadValueError
 
 from .scenes import (
     LIGHT_TYPES,

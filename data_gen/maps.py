@@ -17,8 +17,8 @@ from typing import NamedTuple
 import matplotlib as mpl
 import numpy as np
 
+from attenfit import BadValueError
 from attenfit._atomic import atomic_write
-from attenfit._errors import BadValueError
 
 from .estimate import Progress, estimate_detail
 from .scenes import Light, Plane, plane_axes

@@ -15,8 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from attenfit import Dataset
-from attenfit._errors import BadTypeError, BadValueError
+from attenfit import BadTypeError, BadValueError, Dataset
 
 from .estimate import Estimate, Progress, estimate_detail
 from .scenes import Plane, lights_from_emitter

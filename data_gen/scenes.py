@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attenfit._errors import BadTypeError, BadValueError
+from attenfit import BadTypeError, BadValueError
 
 __all__ = [
     "LIGHT_TYPES",

@@ -23,7 +23,7 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
-from attenfit._errors import AttenfitError, BadValueError
+from attenfit import AttenfitError, BadValueError
 
 __all__ = [
     "LLVM_ENV",

@@ -22,7 +22,7 @@ import numpy as np
 
 from attenfit import AttenfitError
 from attenfit._atomic import atomic_dir, check_output_path
-from attenfit._compile_cache import enable_persistent_cache
+from attenfit._fit import enable_persistent_cache
 
 EXAMPLES = Path(__file__).resolve().parent
 

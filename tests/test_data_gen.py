@@ -30,16 +30,18 @@ import pytest
 mi = pytest.importorskip("mitsuba")
 
 import attenfit  # noqa: E402
-from attenfit import (  # noqa: E402
+from attenfit import (  # noqa: E402  # noqa: E402
+    BadValueError,
     CapsuleEmitter,
+    DataFileError,
     Dataset,
     DiskEmitter,
+    OutputExistsError,
     SphereEmitter,
     facing_sweep,
     plane_receivers,
     random_receivers,
 )
-from attenfit._errors import BadValueError, DataFileError, OutputExistsError  # noqa: E402
 from attenfit.cli import main  # noqa: E402
 from data_gen import estimate as estimate_mod  # noqa: E402
 from data_gen import variants  # noqa: E402

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from scipy.interpolate import PchipInterpolator
 
 import attenfit
-from attenfit import _parts as parts
+from attenfit import parts
 from attenfit.cli import main
 
 NAMES = attenfit.list_families()

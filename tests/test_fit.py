@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import attenfit as af
-from attenfit import _fit
+from attenfit._fit import _api, _compile, _problem
 from attenfit.cli import main
 
 N = 256
@@ -111,7 +111,7 @@ def test_other_solvers_reach_the_same_answer(solver):
 def test_damped_step_solves_the_augmented_least_squares_problem(k):
     # The LM step solves (J^T J + lam D) x = J^T r with D = diag(J^T J); that is the least
     # squares solution of [J; sqrt(lam D)] x = [r; 0], here from numpy's lstsq.
-    from attenfit._solvers import UNROLL_MAX, gram, spd_solve
+    from attenfit._fit._solvers import UNROLL_MAX, gram, spd_solve
 
     assert (k > UNROLL_MAX) == (k == 11)
     rng = np.random.default_rng(3)
@@ -292,7 +292,7 @@ def test_more_nonnegative_parameters_than_one_pass_tries_at_zero():
 
     params = {"a": 0.5, "b": 0.5, "c": 0.5, "e": 0.5}
     kinds = dict.fromkeys(params, "nonnegative")
-    assert len(kinds) > _fit._SUBSETS_MAX
+    assert len(kinds) > _problem._SUBSETS_MAX
     d = np.linspace(0.0, 5.0, N)
     res = af.fit((fn, params, kinds), d, 1 / (2.0 + 0.7 * d * d))
     assert res.converged, res.message
@@ -316,7 +316,7 @@ def test_reported_loss_is_the_loss_at_the_returned_parameters():
 
 
 def test_sums_and_maxima_in_one_reduction():
-    from attenfit._solvers import reduce_samples
+    from attenfit._fit._solvers import reduce_samples
 
     rng = np.random.default_rng(3)
     x, y = rng.normal(size=(2, 257))
@@ -327,7 +327,7 @@ def test_sums_and_maxima_in_one_reduction():
 
 
 def test_sums_and_maxima_over_the_last_axis_keep_leading_axes():
-    from attenfit._solvers import reduce_samples
+    from attenfit._fit._solvers import reduce_samples
 
     x = np.random.default_rng(4).normal(size=(3, 50))
     s, m = reduce_samples([jnp.asarray(x)], [jnp.asarray(x)])
@@ -336,7 +336,7 @@ def test_sums_and_maxima_over_the_last_axis_keep_leading_axes():
 
 
 def test_maps_by_kind_match_each_coordinate_mapped_alone():
-    from attenfit._reparam import by_kind, param_slope, to_param
+    from attenfit._fit._reparam import by_kind, param_slope, to_param
 
     kinds = ("positive", "real", "nonnegative", "unit", "positive")
     u = jnp.array([-1.5, -2.0, -0.25, 0.3, 2.0])
@@ -344,15 +344,15 @@ def test_maps_by_kind_match_each_coordinate_mapped_alone():
         want = [float(fn(k, u[i])) for i, k in enumerate(kinds)]
         np.testing.assert_allclose(by_kind(fn, kinds, u), want, rtol=1e-15)
     # one coordinate per kind, on and off its bound
-    on = by_kind(_fit._on_bound, ("nonnegative", "positive", "unit", "real"), jnp.zeros(4))
+    on = by_kind(_problem._on_bound, ("nonnegative", "positive", "unit", "real"), jnp.zeros(4))
     np.testing.assert_array_equal(on, [True, False, False, False])
     far = jnp.array([1.0, -200.0, 60.0, -1e300])
-    on = by_kind(_fit._on_bound, ("nonnegative", "positive", "unit", "real"), far)
+    on = by_kind(_problem._on_bound, ("nonnegative", "positive", "unit", "real"), far)
     np.testing.assert_array_equal(on, [False, True, True, False])
 
 
 def test_scale_candidates_scale_only_the_free_lengths():
-    from attenfit._guess import SCALES, scale_candidates
+    from attenfit._fit._guess import SCALES, scale_candidates
 
     start = {"r": jnp.asarray(0.5), "eps": jnp.asarray(2.0), "fixed": jnp.asarray(7.0)}
     got = scale_candidates(start, ("r", "eps"), ("r",))
@@ -417,8 +417,8 @@ def test_compiled_solve_options_keep_the_answer(monkeypatch, dtype):
     target = yuksel_stable(d, 0.7e6)
     start = af.Yuksel(r=2e6)
     fast = af.fit(start, d.astype(dtype), target.astype(dtype))
-    monkeypatch.setattr(_fit, "_COMPILER_OPTIONS", None)
-    monkeypatch.setattr(_fit, "_COMPILED", {})
+    monkeypatch.setattr(_compile, "_COMPILER_OPTIONS", None)
+    monkeypatch.setattr(_compile, "_COMPILED", {})
     strict = af.fit(start, d.astype(dtype), target.astype(dtype))
     assert fast.converged and strict.converged, (fast.message, strict.message)
     tol = 1e-5 if dtype == "float32" else 1e-9
@@ -480,12 +480,12 @@ def test_bad_arguments_raise_before_compiling(kwargs, error, words):
     args = dict(model=af.Yuksel(), d=D, target=yuksel_stable(D, 1.0))
     args.update(kwargs)
     model, d, target = args.pop("model"), args.pop("d"), args.pop("target")
-    before = len(_fit._COMPILED)
+    before = len(_compile._COMPILED)
     with pytest.raises(error) as info:
         af.fit(model, d, target, **args)
     assert words in str(info.value)
     assert "\n" not in str(info.value)
-    assert len(_fit._COMPILED) == before
+    assert len(_compile._COMPILED) == before
 
 
 def test_fit_many_rejects_wrong_batch_shape():
@@ -533,12 +533,12 @@ def test_cli_fit_exit_codes(monkeypatch, capsys):
         == 2
     )
     assert "unknown solver 'x'" in capsys.readouterr().err
-    real_fit = _fit.fit
+    real_fit = _api.fit
 
     def failing_fit(*args, **kwargs):
         res = real_fit(*args, **kwargs)
         return type(res)(**{**res.__dict__, "converged": False, "message": "optimistix: stuck"})
 
-    monkeypatch.setattr(_fit, "fit", failing_fit)
+    monkeypatch.setattr(_api, "fit", failing_fit)
     assert main(["fit", "--family", "yuksel", "--emitter", "disk", "--radius", "0.5"]) == 3
     assert "did not converge" in capsys.readouterr().err

@@ -80,11 +80,11 @@ def test_cli_fit_that_fails_exits_3_and_keeps_its_numbers(tmp_path, capsys, monk
     The CLI has no max-steps option; the fit is made to fail for real by running the
     solver for one step from the family's default start (no data-derived guess).
     """
-    from attenfit import _fit
+    from attenfit._fit import _api
 
-    real_fit = _fit.fit
+    real_fit = _api.fit
     monkeypatch.setattr(
-        _fit, "fit", lambda *a, **k: real_fit(*a, **{**k, "max_steps": 1, "guess": False})
+        _api, "fit", lambda *a, **k: real_fit(*a, **{**k, "max_steps": 1, "guess": False})
     )
     out = tmp_path / "fits"
     argv = ["fit", "--family", "yuksel", "--emitter", "disk", "--radius", "0.5"]

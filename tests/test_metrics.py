@@ -6,8 +6,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from attenfit import metrics
-from attenfit._errors import BadValueError
+from attenfit import BadValueError, metrics
 
 
 def test_relative_error_by_hand():

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from attenfit import _report_figures
+from attenfit._report import _figures as _report_figures
 from attenfit.cli import main
 from attenfit.report import PUBLISHED_CUTOFF, Report, build_report, published_params
 

@@ -463,7 +463,7 @@ def test_cli_no_family_within_tolerance_exits_0(tmp_path, capsys):
 
 
 def test_reach_zero_check_names_the_value_at_the_range():
-    from attenfit._recommend import _check_reaches_zero
+    from attenfit._scenes._recommend import check_reaches_zero as _check_reaches_zero
 
     window = attenfit.get_family("frostbite_window")
     assert _check_reaches_zero(window(r_max=3.0), 3.0) is None

@@ -18,9 +18,10 @@ import jax
 
 jax.config.update("jax_enable_x64", True)  # as the CLI: truth and fits in float64
 
+from attenfit._compile_cache import enable_persistent_cache  # noqa: E402
+
 import attenfit  # noqa: E402
 from attenfit._atomic import atomic_write  # noqa: E402
-from attenfit._compile_cache import enable_persistent_cache  # noqa: E402
 from attenfit.scene import SCENE_KEYS, Scene  # noqa: E402
 
 HERE = Path(__file__).resolve().parent

@@ -25,29 +25,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-__all__ = [
-    "clamped_inverse_square",
-    "cutoff_bias",
-    "distance",
-    "inverse_square",
-    "keep_nan",
-    "linear_tail_window",
-    "monotone_cubic",
-    "polynomial",
-    "power_clamped_value",
-    "power_min_distance",
-    "promote",
-    "rational_warp",
-    "smooth_window",
-    "softened_inverse_square",
-    "stable_hypot",
-    "surface_distance",
-    "surface_gap",
-    "surface_sphere",
-    "tan_warp",
-    "yuksel",
-]
-
 Real = Float[Array, "*shape"]
 
 

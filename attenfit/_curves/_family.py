@@ -2,18 +2,30 @@
 
 import abc
 import dataclasses
+import functools
 import inspect
 from collections.abc import Callable, Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
 import jax
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._errors import BadTypeError, BadValueError, UnknownNameError
+from .._errors import BadTypeError, BadValueError, UnknownNameError
 
-__all__ = ["Family", "family_from_function", "get_family", "list_families", "register_family"]
+__all__ = [
+    "Family",
+    "Out",
+    "Param",
+    "family_from_function",
+    "float32_family",
+    "get_family",
+    "jit_call",
+    "list_families",
+    "register_family",
+]
 
 #: The kinds of constraint a parameter can carry (see `Family.constraints`).
 CONSTRAINTS = ("positive", "nonnegative", "unit", "real")
@@ -248,7 +260,7 @@ def family_from_function(
     variables (`constraints`, `singular`, `range_param`, `window`, `monotone`,
     `tends_to_inverse_square`, `length_params`, `units`, `scale_covariant`) may be passed as
     keywords. `default_free` defaults to every parameter. `fn` receives `d` and the parameters
-    as given (call `attenfit._parts.promote` inside it to share one dtype). With
+    as given (call `attenfit.parts.promote` inside it to share one dtype). With
     ``register=True`` the class is also registered (see `register_family`).
     """
     if not callable(fn):
@@ -301,3 +313,43 @@ def get_family(name: str) -> type[Family]:
         raise UnknownNameError(
             f"unknown family {name!r}; known families: {', '.join(_REGISTRY)}"
         ) from None
+
+
+#: A parameter: a scalar, or an array with a leading batch axis (`fit_many`).
+Param = Float[ArrayLike, "*batch"]
+#: A family's output, shaped like `d`.
+Out = Float[Array, "*shape"]
+
+
+def jit_call(call):
+    """Compile a family's `__call__` once per shape and dtype (not per parameter value).
+
+    Parameters and `d` are turned into arrays first (Python numbers stay weakly typed), so
+    `eqx.filter_jit` traces them instead of baking their values in; inside a caller's own
+    `jit`/`vmap`/`grad` this is simply inlined. Eager calls then cost one dispatch instead of
+    one per primitive.
+    """
+    jitted = eqx.filter_jit(call)
+
+    @functools.wraps(call)
+    def wrapper(self, d):
+        self = jax.tree_util.tree_map(jnp.asarray, self)
+        return jitted(self, jnp.asarray(d))
+
+    return wrapper
+
+
+Out = Float[Array, "*shape"]
+
+
+def float32_family(family: Family) -> Family:
+    """`family` with every floating parameter leaf as a float32 array."""
+
+    def cast(x: Any) -> Any:
+        if isinstance(x, float) or (
+            hasattr(x, "dtype") and np.issubdtype(np.dtype(x.dtype), np.floating)
+        ):
+            return jnp.asarray(x, jnp.float32)
+        return x
+
+    return jax.tree.map(cast, family)

@@ -246,7 +246,7 @@ class LevenbergMarquardt(optx.AbstractLeastSquaresSolver):
     when the start's residuals are not finite.
 
     `reflected` marks coordinates on which the residuals depend through `|y_i|` (attenfit's
-    nonnegative parameters, `attenfit._reparam`). Their linear model holds on one side of 0
+    nonnegative parameters, `attenfit._fit._reparam`). Their linear model holds on one side of 0
     only. A step may cross 0 (the parameter is reflected back, which speeds far starts:
     21 steps against 37 when stopping on 0), but after a rejected crossing step the next
     one stops on 0; and a coordinate on 0 whose step heads below it stays there while the

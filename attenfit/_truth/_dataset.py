@@ -22,10 +22,17 @@ from typing import Any
 import jax
 import numpy as np
 
-from ._atomic import atomic_write
-from ._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
+from .._atomic import atomic_write
+from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
+from .._version import __version__
+from ._emitters import (
+    AbstractEmitter,
+    CapsuleEmitter,
+    DiskEmitter,
+    SphereEmitter,
+    emitter_from_dict,
+)
 from ._irradiance import irradiance
-from .emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter, emitter_from_dict
 
 __all__ = [
     "FORMAT",
@@ -44,8 +51,6 @@ _ARRAYS = ("points", "normals", "E", "stderr")
 
 
 def _versions() -> dict[str, str]:
-    from . import __version__
-
     return {
         "attenfit": __version__,
         "jax": jax.__version__,

@@ -11,9 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import plots
+from .._curves import get_family
+from . import _plots as plots
+from ._cost_plot import plot_cost_vs_error
 
-_WINDOWED = ("smooth", "hard")
+WINDOWED = ("smooth", "hard")
 
 
 def _save(fig, folder: Path, key: str, dpi: int, svg: bool, out: dict[str, Path]) -> None:
@@ -28,7 +30,6 @@ def _save(fig, folder: Path, key: str, dpi: int, svg: bool, out: dict[str, Path]
 
 
 def _split(report) -> tuple[list[str], list[str]]:
-    from ._family import get_family
 
     plain, windowed = [], []
     for fam in report.families:
@@ -36,7 +37,7 @@ def _split(report) -> tuple[list[str], list[str]]:
             w = get_family(fam).window
         except Exception:
             w = "none"
-        (windowed if w in _WINDOWED else plain).append(fam)
+        (windowed if w in WINDOWED else plain).append(fam)
     return plain, windowed
 
 
@@ -151,8 +152,6 @@ def _cost_vs_error(report):
     """Error against shader cost per sweep configuration, as published and fitted, with the
     Pareto front (`attenfit.cost.plot_cost_vs_error`)."""
     import matplotlib as mpl
-
-    from .cost import plot_cost_vs_error
 
     sweeps = [c for c in report.configs if c.sweep is not None]
     costs = {

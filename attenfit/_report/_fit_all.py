@@ -6,7 +6,7 @@ configuration, and compiling one Levenberg-Marquardt solve per family costs ~3 s
 problem becomes one row of a single `fit_many` call on a `(fn, params)` model:
 
 * `params["u"]` holds the family's free parameters, flattened and mapped to unconstrained
-  coordinates with the family's own constraints (`attenfit._reparam`), zero-padded to the
+  coordinates with the family's own constraints (`attenfit._fit._reparam`), zero-padded to the
   longest; `params["c"]` the fixed ones; `params["fam"]` the family's index;
 * `fn` picks the family with `jax.lax.switch` (under `vmap`, a select over all branches, so
   each row evaluates only its own family's value and derivative).
@@ -23,6 +23,8 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+
+from .._fit import fit_many, to_internal, to_param
 
 
 @dataclasses.dataclass(frozen=True)
@@ -59,13 +61,11 @@ def _size(shape: tuple[int, ...]) -> int:
 
 
 def _to_internal(kind: str, p: np.ndarray) -> np.ndarray:
-    from ._reparam import to_internal
 
     return np.asarray(to_internal(kind, np.asarray(p, np.float64)), np.float64)
 
 
 def _to_param(kind: str, u: np.ndarray) -> np.ndarray:
-    from ._reparam import to_param
 
     return np.asarray(to_param(kind, np.asarray(u, np.float64)), np.float64)
 
@@ -96,9 +96,6 @@ def fit_all(
     import equinox as eqx
     import jax
     import jax.numpy as jnp
-
-    from ._fit import fit_many
-    from ._reparam import to_param
 
     classes: list[type] = []
     for cls, *_ in problems:

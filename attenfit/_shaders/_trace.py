@@ -6,15 +6,14 @@ sub-jaxprs (`jit`/`pjit`, `custom_jvp_call`, `custom_vjp_call`, ...), expands `i
 and `square` into the multiplications XLA performs (JAX's `_integer_pow` lowering: binary
 exponentiation, then one division for a negative exponent), drops no-op conversions, folds
 static array plumbing (slice, squeeze, reshape, broadcast, concatenate, constant gathers),
-and removes dead code. The result, a `Program`, is what `attenfit.export` prints as shader
-code and what `attenfit.cost` counts: both see the very expression the JAX code evaluates.
+and removes dead code. The result, a `Program`, is what `_export` prints as shader
+code and what `_cost` counts: both see the very expression the JAX code evaluates.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import itertools
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import Any
 
 import equinox as eqx
@@ -22,92 +21,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._errors import BadTypeError, BadValueError
-from ._family import Family
+from .._curves import Family, float32_family
+from .._errors import BadTypeError, BadValueError
+from ._program import Atom, Const, Op, Program, UnsupportedPrimitiveError, Var
 
-__all__ = ["Const", "Op", "Program", "UnsupportedPrimitiveError", "Var", "trace"]
-
-
-class UnsupportedPrimitiveError(BadValueError):
-    """The family uses a JAX primitive that has no straight-line scalar translation."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Var:
-    """A scalar variable of the program; `dtype` is "f32", "i32" or "bool"."""
-
-    id: int
-    dtype: str
-
-
-@dataclasses.dataclass(frozen=True)
-class Const:
-    """A scalar literal (a Python float, int or bool)."""
-
-    value: Any
-    dtype: str
-
-
-Atom = Var | Const
-
-
-@dataclasses.dataclass(frozen=True)
-class Op:
-    """One scalar equation `out = prim(*args)` (prim names are listed in `PRIMITIVES`)."""
-
-    prim: str
-    args: tuple[Atom, ...]
-    out: Var
-    params: tuple[tuple[str, Any], ...] = ()
-
-
-@dataclasses.dataclass(frozen=True)
-class Program:
-    """`family(d)` as scalar equations, in evaluation order, dead code removed.
-
-    `d` is the input variable; `params` maps each parameter name to its input variables
-    (one for a scalar parameter, one per element, flattened C-order, for an array) and
-    `values` to their float32 values; `output` is the result atom.
-    """
-
-    family: str
-    d: Var
-    params: Mapping[str, tuple[Var, ...]]
-    values: Mapping[str, tuple[float, ...]]
-    shapes: Mapping[str, tuple[int, ...]]
-    ops: tuple[Op, ...]
-    output: Atom
-
-    def depends_on_d(self) -> set[int]:
-        """The ids of the variables whose value depends on `d` (per-pixel work)."""
-        dep = {self.d.id}
-        for op in self.ops:
-            if any(isinstance(a, Var) and a.id in dep for a in op.args):
-                dep.add(op.out.id)
-        return dep
-
-    def evaluate_numpy(self, d: np.ndarray, values: Mapping[str, Any] | None = None) -> np.ndarray:
-        """Evaluate the program with numpy float32 ufuncs, element-wise over the array `d`."""
-        env: dict[int, Any] = {self.d.id: np.asarray(d, np.float32)}
-        vals = dict(self.values) if values is None else dict(values)
-        for name, vars_ in self.params.items():
-            flat = np.asarray(vals[name], np.float32).reshape(-1)
-            for var, x in zip(vars_, flat, strict=True):
-                env[var.id] = np.float32(x)
-
-        def get(a: Atom):
-            if isinstance(a, Const):
-                return _NP_DTYPES[a.dtype](a.value)
-            return env[a.id]
-
-        with np.errstate(all="ignore"):
-            for op in self.ops:
-                env[op.out.id] = _numpy_op(op, [get(a) for a in op.args])
-            out = get(self.output)
-        return np.broadcast_to(np.asarray(out, np.float32), np.shape(d)).copy()
-
-
-_NP_DTYPES: dict[str, Callable[[Any], Any]] = {"f32": np.float32, "i32": np.int32, "bool": np.bool_}
+__all__ = ["PRIMITIVES", "trace"]
 
 #: Element-wise primitives kept as they are: name -> number of arguments (None: any).
 PRIMITIVES: dict[str, int | None] = {
@@ -566,19 +484,6 @@ def _gather_element(
     return rec((), 0)
 
 
-def _float32_family(family: Family) -> Family:
-    """`family` with every floating parameter leaf as a float32 array."""
-
-    def cast(x: Any) -> Any:
-        if isinstance(x, float) or (
-            hasattr(x, "dtype") and np.issubdtype(np.dtype(x.dtype), np.floating)
-        ):
-            return jnp.asarray(x, jnp.float32)
-        return x
-
-    return jax.tree.map(cast, family)
-
-
 def trace(family: Family) -> Program:
     """The scalar program of `family(d)` for a float32 scalar `d` (see the module docstring)."""
     if isinstance(family, type) and issubclass(family, Family):
@@ -590,7 +495,7 @@ def trace(family: Family) -> Program:
     for n, v in values.items():
         if not np.all(np.isfinite(v)):
             raise BadValueError(f"parameter {n}={v.tolist()} of {family.name!r} is not finite")
-    fam32 = _float32_family(family)
+    fam32 = float32_family(family)
 
     def fn(d, *ps):
         model = eqx.tree_at(lambda m: [getattr(m, n) for n in names], fam32, list(ps))
@@ -642,73 +547,3 @@ def _dead_code_eliminated(ops: list[Op], output: Atom) -> list[Op]:
             kept.append(op)
             live.update(a.id for a in op.args if isinstance(a, Var))
     return kept[::-1]
-
-
-# ----------------------------------------------------------------------------- numpy semantics
-def _select_n(pred: Any, *cases: Any) -> Any:
-    if len(cases) == 2 and np.asarray(pred).dtype == np.bool_:
-        return np.where(pred, cases[1], cases[0])
-    return np.choose(np.asarray(pred, np.int32), np.broadcast_arrays(*cases))
-
-
-def _sign(x: Any) -> Any:
-    return np.sign(x)
-
-
-_NUMPY: dict[str, Callable[..., Any]] = {
-    "add": np.add,
-    "sub": np.subtract,
-    "mul": np.multiply,
-    "div": np.divide,
-    "max": np.maximum,
-    "min": np.minimum,
-    "pow": np.power,
-    "atan2": np.arctan2,
-    "rem": np.fmod,
-    "lt": np.less,
-    "le": np.less_equal,
-    "gt": np.greater,
-    "ge": np.greater_equal,
-    "eq": np.equal,
-    "ne": np.not_equal,
-    "and": np.logical_and,
-    "or": np.logical_or,
-    "not": np.logical_not,
-    "neg": np.negative,
-    "abs": np.abs,
-    "sign": _sign,
-    "sqrt": np.sqrt,
-    "rsqrt": lambda x: np.float32(1) / np.sqrt(x),
-    "cbrt": np.cbrt,
-    "exp": np.exp,
-    "exp2": np.exp2,
-    "log": np.log,
-    "expm1": np.expm1,
-    "log1p": np.log1p,
-    "tan": np.tan,
-    "sin": np.sin,
-    "cos": np.cos,
-    "atan": np.arctan,
-    "tanh": np.tanh,
-    "logistic": lambda x: np.float32(1) / (np.float32(1) + np.exp(-x)),
-    "floor": np.floor,
-    "ceil": np.ceil,
-    "round": np.round,
-    "is_finite": np.isfinite,
-    "clamp": lambda lo, x, hi: np.minimum(np.maximum(x, lo), hi),
-    "select_n": _select_n,
-}
-
-
-def _numpy_op(op: Op, args: list[Any]) -> Any:
-    if op.prim == "convert":
-        return np.asarray(args[0]).astype(
-            {"f32": np.float32, "i32": np.int32, "bool": np.bool_}[op.out.dtype]
-        )
-    if op.prim == "div" and op.out.dtype == "i32":  # XLA truncates towards zero, as C does
-        a, b = (np.asarray(x, np.int64) for x in args)
-        return (np.sign(a) * np.sign(b) * (np.abs(a) // np.abs(b))).astype(np.int32)
-    if op.prim in ("and", "or", "not") and op.out.dtype == "i32":
-        fn = {"and": np.bitwise_and, "or": np.bitwise_or, "not": np.invert}[op.prim]
-        return fn(*args)
-    return _NUMPY[op.prim](*args)

@@ -36,8 +36,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
-from ._errors import BadTypeError
-from .emitters import (
+from .._errors import BadTypeError
+from ._emitters import (
     AbstractEmitter,
     CapsuleEmitter,
     DiskEmitter,

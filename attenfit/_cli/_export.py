@@ -1,0 +1,79 @@
+"""`attenfit export`: a (fitted) family as a GLSL, HLSL, WGSL or C function."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .._errors import BadValueError
+from ._common import EXIT_OK
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "export",
+        help="write a (fitted) family as a GLSL, HLSL, WGSL or C function",
+        description="Print (or write with --out) a self-contained shader or C function of a "
+        "family, generated from the expression the JAX code evaluates.",
+    )
+    p.add_argument(
+        "source",
+        metavar="FAMILY|FIT.json",
+        help="a family name (see `attenfit families`) or a fit written by `attenfit fit --out`",
+    )
+    p.add_argument("--lang", default="glsl", help="glsl (default), hlsl, wgsl or c", metavar="LANG")
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="set a parameter (repeatable); overrides a fit's value",
+    )
+    p.add_argument(
+        "--family",
+        default=None,
+        metavar="NAME",
+        help="the fit to export when FIT.json holds several families",
+    )
+    p.add_argument(
+        "--uniforms",
+        action="store_true",
+        help="read parameters from uniforms (C: function arguments) instead of baking them in",
+    )
+    p.add_argument("--name", default=None, help="function name (default attenfit_<family>)")
+    p.add_argument("--out", default=None, metavar="FILE", help="write to FILE instead of stdout")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.set_defaults(run=_run_export)
+
+
+def _run_export(args: argparse.Namespace) -> int:
+    from .._atomic import atomic_write, check_output_path
+    from .._shaders import LANGUAGES, export
+
+    if args.lang not in LANGUAGES:
+        raise BadValueError(f"--lang must be one of {', '.join(LANGUAGES)}, got {args.lang!r}")
+    params = {}
+    for item in args.param:
+        key, sep, value = item.partition("=")
+        try:
+            if not sep or not key.strip():
+                raise ValueError
+            params[key.strip()] = float(value)
+        except ValueError:
+            raise BadValueError(f"--param must be NAME=NUMBER, got {item!r}") from None
+    if args.out is not None:
+        check_output_path(args.out, force=args.force)
+    text = export(
+        args.source,
+        args.lang,
+        uniforms=args.uniforms,
+        name=args.name,
+        params=params or None,
+        family=args.family,
+    )
+    if args.out is None:
+        print(text, end="")
+    else:
+        atomic_write(args.out, text, force=args.force)
+        print(f"attenfit export: wrote {args.out}", file=sys.stderr)
+    return EXIT_OK

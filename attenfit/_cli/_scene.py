@@ -1,0 +1,58 @@
+"""`attenfit scene`: what a scene file needs, and the cheapest family that gives it."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+from ._common import EXIT_OK
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "scene",
+        help="fit what a scene file needs and recommend the cheapest family",
+        description="Generate ground truth only for the scene's lights and receivers, fit every "
+        "family its constraints allow, and recommend the cheapest within its tolerance. "
+        "Exit 0 even when no family meets the tolerance (the output says so); 2 for a bad "
+        "scene file.",
+    )
+    p.add_argument("file", metavar="FILE", help="a TOML scene file (see README, Scene files)")
+    p.add_argument(
+        "--out",
+        default=None,
+        metavar="DIR",
+        help="write recommendation.md/.json, the winner's shaders and errors.png into DIR",
+    )
+    p.add_argument("--force", action="store_true", help="replace an existing non-empty DIR")
+    p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
+    p.add_argument(
+        "--no-measure",
+        action="store_true",
+        help="rank by operation count and error only (skip timing the families)",
+    )
+    p.set_defaults(run=_run_scene)
+
+
+def _run_scene(args: argparse.Namespace) -> int:
+    from .._atomic import check_output_path
+    from .._fit import enable_persistent_cache
+    from .._scenes import Scene, recommend
+
+    scene = Scene.load(args.file)
+    if args.out is not None:
+        check_output_path(args.out, force=args.force, folder=True)
+    import jax
+
+    jax.config.update("jax_enable_x64", True)  # truth and fits in float64 (float32: a constraint)
+    enable_persistent_cache()
+    rec = recommend(scene, measure=not args.no_measure)
+    if args.json:
+        print(json.dumps(rec.to_dict(), indent=2))
+    else:
+        print(rec.to_markdown(), end="")
+    if args.out is not None:
+        rec.save(args.out, force=args.force)
+        print(f"attenfit scene: wrote {args.out}", file=sys.stderr)
+    return EXIT_OK

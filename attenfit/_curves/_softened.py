@@ -1,0 +1,209 @@
+"""Unwindowed families: inverse square, its softened and clamped forms, Yuksel's curves,
+the exact facing disk and the fixed-function polynomial (RTR4 section 5.2.2; Yuksel 2020)."""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import jax.numpy as jnp
+from jaxtyping import ArrayLike, Float
+
+from . import _parts as parts
+from ._family import Family, Out, Param, jit_call, register_family
+
+__all__ = [
+    "Clamped",
+    "DiskFacing",
+    "InverseSquare",
+    "Polynomial",
+    "UnrealEpsilon",
+    "Yuksel",
+    "YukselAdhoc",
+]
+
+
+# ----------------------------------------------------------------------------- inverse square
+@register_family
+class InverseSquare(Family):
+    """Inverse-square attenuation, f = 1/d^2 (RTR4 section 5.2.2, eq. 5.11).
+
+    The correct law for an ideal point light. Honestly singular: +inf at d = 0 and wherever
+    1/d^2 overflows the dtype (e.g. d < 5.4e-20 in float32), never NaN. No parameters.
+    """
+
+    name = "inverse_square"
+    formula = "1/d^2"
+    source = "Akenine-Moller et al., Real-Time Rendering 4th ed. (RTR4), eq. 5.11"
+    default_free = ()
+    singular = True
+    tends_to_inverse_square = True
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        (d,) = parts.promote(d)
+        return parts.keep_nan(d, parts.inverse_square(parts.distance(d)))
+
+
+@register_family
+class UnrealEpsilon(Family):
+    """Unreal's softened inverse square, f = 1/(d^2 + eps) (RTR4 eq. 5.12).
+
+    Unreal Engine 4/5 `CapsuleLightIntegrate.ush` (`Falloff = 1/(d^2 + DistBiasSqr)`, with
+    `DistBiasSqr = 1` set in `DeferredLightingCommon.ush::GetCapsule`) works in centimetres, so
+    eps = 1 cm^2 = 1e-4 m^2 (the default). `eps` is an area (m^2). f(0) = 1/eps.
+    """
+
+    eps: Param = 1e-4
+
+    name = "unreal_epsilon"
+    formula = "1/(d^2 + eps)"
+    source = "RTR4 eq. 5.12; Unreal Engine CapsuleLightIntegrate.ush (DistBiasSqr = 1 cm^2)"
+    default_free = ("eps",)
+    units: ClassVar = {"eps": 2}
+    tends_to_inverse_square = True
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        d, eps = parts.promote(d, self.eps)
+        return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), jnp.sqrt(eps)))
+
+
+@register_family
+class Clamped(Family):
+    """Inverse square with the distance clamped, f = 1/max(d, r_min)^2 (RTR4 eq. 5.13).
+
+    Used by CryEngine and Frostbite; r_min (m) is the radius of the physical emitter, so
+    d < r_min would be inside it. Default r_min = 0.1 m (the default light radius). f(0) =
+    1/r_min^2; the slope has a kink at r_min.
+    """
+
+    r_min: Param = 0.1
+
+    name = "clamped"
+    formula = "1/max(d, r_min)^2"
+    source = "RTR4 eq. 5.13 (CryEngine, Frostbite)"
+    default_free = ("r_min",)
+    length_params = ("r_min",)
+    tends_to_inverse_square = True
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        d, r_min = parts.promote(d, self.r_min)
+        return parts.keep_nan(d, parts.clamped_inverse_square(parts.distance(d), r_min))
+
+
+# ----------------------------------------------------------------------------- Yuksel and disk
+@register_family
+class Yuksel(Family):
+    """Yuksel's non-singular attenuation, f = 2/r^2 (1 - d/sqrt(d^2 + r^2)) (Yuksel 2020 eq. 7).
+
+    C. Yuksel, "Point Light Attenuation Without Singularity", SIGGRAPH 2020 Talks, eq. 7: a
+    point light of radius r (m) treated as a facing disk of radiance 1/(pi r^2); f is that
+    disk's solid angle times its radiance, without the cosine factor. Evaluated in the
+    cancellation-free form 2/(s (s + d)), s = hypot(d, r) (the project page's rewrite, used by
+    Blender EEVEE `eevee_light_lib.glsl::light_point_light`): the naive eq. 7 loses every digit
+    for d >> r in float32. f(0) = 2/r^2; f -> 1/d^2 (1 + 3/4 r^2/d^2 ...)^-1 far away.
+    """
+
+    r: Param = 0.1
+
+    name = "yuksel"
+    formula = "2/(s (s + d)), s = sqrt(d^2 + r^2)  [= 2/r^2 (1 - d/sqrt(d^2 + r^2))]"
+    source = "Yuksel 2020, Point Light Attenuation Without Singularity, eq. 7"
+    default_free = ("r",)
+    length_params = ("r",)
+    tends_to_inverse_square = True
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        d, r = parts.promote(d, self.r)
+        return parts.keep_nan(d, parts.yuksel(parts.distance(d), r))
+
+
+@register_family
+class YukselAdhoc(Family):
+    """Yuksel's version of the ad hoc softening, f = 1/(d^2 + r^2/2) (Yuksel 2020 eq. 8).
+
+    Same value at d = 0 as eq. 7 (2/r^2) and, as the talk says, bounded by eq. 7 and by
+    inverse square. Equals the exact facing-disk irradiance of a disk of radius r/sqrt(2).
+    r in m.
+    """
+
+    r: Param = 0.1
+
+    name = "yuksel_adhoc"
+    formula = "1/(d^2 + r^2/2)"
+    source = "Yuksel 2020, Point Light Attenuation Without Singularity, eq. 8"
+    default_free = ("r",)
+    length_params = ("r",)
+    tends_to_inverse_square = True
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        d, r = parts.promote(d, self.r)
+        return parts.keep_nan(
+            d, parts.softened_inverse_square(parts.distance(d), r * math.sqrt(0.5))
+        )
+
+
+@register_family
+class DiskFacing(Family):
+    """The exact facing-disk attenuation, f = 1/(d^2 + r^2).
+
+    Irradiance on the axis of a Lambertian disk of radius r (m) and radiance 1/(pi r^2)
+    (unit intensity), at distance d, receiver facing it: E = pi L sin^2(sigma) = 1/(d^2 + r^2)
+    (Howell's catalogue B-12; groundtruth.md section 4). The Madams thread remarks that his
+    curve is really a disc light's. f(0) = 1/r^2.
+    """
+
+    r: Param = 0.1
+
+    name = "disk_facing"
+    formula = "1/(d^2 + r^2)"
+    source = "closed form (Howell catalogue B-12); Madams 2011 comment thread"
+    default_free = ("r",)
+    length_params = ("r",)
+    tends_to_inverse_square = True
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        d, r = parts.promote(d, self.r)
+        return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), r))
+
+
+@register_family
+class Polynomial(Family):
+    """Fixed-function attenuation, f = 1/(kc + kl d + kq d^2).
+
+    OpenGL `glLight` (GL_CONSTANT/LINEAR/QUADRATIC_ATTENUATION), Direct3D 9 and Ogre RTSS
+    `getDistanceAttenuation`. Madams 2011 reads it as a sphere of radius r with kc = 1,
+    kl = 2/r, kq = 1/r^2 in surface distance (normalised to 1 at the surface); in this
+    project's normalisation the defaults kc = r^2 = 0.01 m^2, kl = 2r = 0.2 m, kq = 1
+    (r = 0.1 m) give 1/(d + r)^2. All coefficients are non-negative; with kc = 0 the family
+    is singular at d = 0 like inverse square. Evaluated in two branches so nothing overflows.
+    """
+
+    kc: Param = 0.01
+    kl: Param = 0.2
+    kq: Param = 1.0
+
+    name = "polynomial"
+    formula = "1/(kc + kl d + kq d^2)"
+    source = "OpenGL glLight fixed-function attenuation; Madams 2011 (kc=1, kl=2/r, kq=1/r^2)"
+    default_free = ("kc", "kl", "kq")
+    constraints: ClassVar = {"kc": "nonnegative", "kl": "nonnegative", "kq": "nonnegative"}
+    length_params = ("kl",)
+    units: ClassVar = {"kc": 2}
+    scale_covariant = True
+
+    @jit_call
+    def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
+        d, kc, kl, kq = parts.promote(d, self.kc, self.kl, self.kq)
+        return parts.keep_nan(d, parts.polynomial(parts.distance(d), kc, kl, kq))

@@ -1,0 +1,19 @@
+"""Stage 3, fitting: `fit`, `fit_dataset` and `fit_many` on optimistix, with attenfit's
+Levenberg-Marquardt (`_solvers`), data-derived starts (`_guess`), constrained parameters
+(`_reparam`), compiled solves cached in memory (`_compile`) and on disk (`_compile_cache`).
+
+Imports the curves stage (a model is a `Family`) and nothing above it.
+"""
+
+from ._api import fit as fit
+from ._api import fit_dataset as fit_dataset
+from ._api import fit_many as fit_many
+from ._compile_cache import enable_persistent_cache as enable_persistent_cache
+
+# For the report stage's combined fit of many families in one solve.
+from ._reparam import to_internal as to_internal
+from ._reparam import to_param as to_param
+from ._result import FitResult as FitResult
+from ._result import FitResults as FitResults
+from ._solvers import SOLVERS as SOLVERS
+from ._validate import LOSSES as LOSSES

@@ -1,0 +1,168 @@
+"""Compiled solves, cached by everything they depend on: jit with XLA's CPU fast math,
+chunked `vmap` for a batch, and the packed inputs of a single fit."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array
+
+from ._problem import build_problem
+from ._solvers import (
+    make_solver,
+)
+from ._spec import Spec, free_kinds
+
+
+class _OnHost:
+    """A jitted packed solve, returning its outputs as one numpy array (`packed_layout` along
+    the last axis, after any batch axis).
+
+    A float32 solve is traced and run with JAX's x64 mode off, as JAX runs float32 by
+    default, whatever the caller's mode: with it on, optimistix's dogleg mixes float64 into
+    a float32 solve and fails to trace (its `newton_norm` and `cauchy_norm` state).
+    """
+
+    def __init__(self, fn: Callable, dtype: np.dtype):
+        self.fn, self.x64 = fn, np.dtype(dtype).itemsize == 8
+
+    def __call__(self, *args) -> np.ndarray:
+        if self.x64:
+            out = self.fn(*args)
+        else:
+            with jax.enable_x64(False):
+                out = self.fn(*args)
+        # + 0.0 turns -0.0 into 0.0: the solve's fast math (`_COMPILER_OPTIONS`) may drop
+        # the sign of a zero, so a parameter on its bound could come back as -0.0
+        return np.asarray(out) + 0.0
+
+
+#: Problems per vmapped chunk in `fit_many`: chunks run one after another (`lax.map`), and
+#: each stops when its own slowest problem does, so one straggler holds up its chunk only.
+#: Every operation of a step has a fixed cost per chunk, so small chunks pay it many times:
+#: 1,000 polynomial fits (4 steps each), median wall time: 26.5 ms in chunks of 64, 24.2 ms
+#: of 128, 24.1 ms of 256, 25.9 ms of 512 (two chunks), 19.6 ms in one. (With optimistix's
+#: own Gauss-Newton state, 64 was best: its steps cost four times more per problem.)
+_CHUNK = 1024
+
+
+def _chunked(vfn: Callable, chunk: int) -> Callable:
+    """`vfn` (vmapped over axis 0) applied chunk by chunk with `lax.map`; pads the batch."""
+
+    def run(*args):
+        batch = jax.tree_util.tree_leaves(args)[0].shape[0]
+        if batch <= chunk:
+            return vfn(*args)
+        n_chunks = -(-batch // chunk)
+        pad = n_chunks * chunk - batch
+
+        def split(x):
+            x = jnp.concatenate([x, jnp.repeat(x[:1], pad, axis=0)]) if pad else x
+            return x.reshape((n_chunks, chunk, *x.shape[1:]))
+
+        out = jax.lax.map(lambda a: vfn(*a), jax.tree_util.tree_map(split, args))
+        return out.reshape((n_chunks * chunk, *out.shape[2:]))[:batch]
+
+    return run
+
+
+_COMPILED: dict[Any, Callable] = {}
+
+#: XLA options of every compiled solve: the CPU backend's fast math less what XLA keeps
+#: exact by default (NaN and infinity semantics, division, math functions), which leaves
+#: reassociation, contraction into FMAs, and ignoring the sign of zero (outputs are made
+#: +0.0 in `_OnHost`). Reassociation lets LLVM vectorise the sums over the samples (a
+#: strict reduction is a chain of scalar adds): the compiled solve of 1,000 polynomial
+#: fits of 256 samples took 4.4-5.0 ms instead of 8.4-10.3. Results move within the
+#: tolerances: the 19 parameterised families fitted to their own curves over d from 1e-3
+#: to 1e3 and 1e12 times a scale of 1e-6, 1 or 1e6, float32 and float64 (227 fits),
+#: converge as with a strict compilation, parameters within 2e-6 relative of its
+#: (`tests/test_fit.py::test_compiled_solve_options_keep_the_answer`). An exact fit's
+#: residuals are rounding noise rather than exact zeros (f / t - 1 is one FMA), which the
+#: solver's rounding-level loss (`exact_loss`) ends at once.
+_COMPILER_OPTIONS = {"xla_cpu_enable_fast_math": True}
+
+
+def _read_in_order(flat: Array) -> Array:
+    """`flat` as every kernel of a single fit reads it: after one reduction over it.
+
+    XLA's CPU runtime runs a compiled computation as a graph of small kernels, and hands
+    half of the ready ones to another thread whenever more than eight are ready at once.
+    A single fit is a few hundred kernels of microseconds each, so such a hand-off costs
+    more than the work it shares: one per call, at the start, where some fifteen kernels
+    read the inputs independently (slices, reciprocals, the candidates' setup), cost the
+    benchmark's polynomial fit 0.13 ms of its 0.19 ms compiled solve (measured with the
+    solve run inline, `jax_cpu_enable_async_dispatch=False`; 0.23 -> 0.19 ms dispatched as
+    by default). Reading the inputs through one reduction makes every reader wait for it,
+    so they become ready a few at a time. The same concern keeps the solve's other
+    independent pieces few and wide: the candidates are evaluated as one batch, the end
+    point's outputs picked in one selection, the constraints mapped as one vector.
+
+    The inputs are validated finite, so the selection never changes them (a non-finite
+    one would make every input NaN).
+    """
+    return jnp.where(jnp.max(jnp.abs(flat)) < jnp.inf, flat, jnp.nan)
+
+
+def _unflatten_inputs(
+    spec: Spec, flat: Array, weighted: bool
+) -> tuple[dict[str, Array], Array, Array, Array]:
+    """Start values, d, target and weights from `fit`'s one input vector (their concatenation;
+    without weights when not `weighted`: None, all 1)."""
+    values, off = {}, 0
+    for name, shape in zip(spec.names, spec.shapes, strict=True):
+        size = math.prod(shape)
+        values[name] = flat[off : off + size].reshape(shape)
+        off += size
+    n = (flat.shape[0] - off) // (3 if weighted else 2)
+    d, target = flat[off : off + n], flat[off + n : off + 2 * n]
+    return values, d, target, flat[off + 2 * n :] if weighted else None
+
+
+def compiled_solve(
+    spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype, weighted
+):
+    """The jitted solve for this configuration, from the cache (jit re-specialises on shapes).
+
+    Called as `fn(flat)` for one problem (`_unflatten_inputs`), and as `fn(values, d,
+    target, weights)` (or without `weights` when not `weighted`) for a batch.
+    """
+    key = (
+        dtype,
+        weighted,
+        spec.key,
+        spec.names,
+        spec.shapes,
+        free,
+        loss,
+        solver,
+        max_steps,
+        rtol,
+        atol,
+        guess,
+        batched,
+    )
+    fn = _COMPILED.get(key)
+    if fn is None:
+        reflected = tuple(kind == "nonnegative" for kind in free_kinds(spec, free))
+        solver_obj = (
+            make_solver(solver, rtol, atol, float(np.finfo(dtype).eps), batched, reflected)
+            if isinstance(solver, str)
+            else solver
+        )
+        run = build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched)
+        if batched:
+            fn = jax.jit(_chunked(run, _CHUNK), compiler_options=_COMPILER_OPTIONS)
+        else:
+            fn = jax.jit(
+                lambda flat: run(*_unflatten_inputs(spec, _read_in_order(flat), weighted)),
+                compiler_options=_COMPILER_OPTIONS,
+            )
+        fn = _OnHost(fn, dtype)
+        _COMPILED[key] = fn
+    return fn

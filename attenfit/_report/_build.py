@@ -1,0 +1,361 @@
+"""The comparison report: how each attenuation curve approximates real lights.
+
+`build_report(...)` evaluates every family against the exact irradiance of each emitter, both
+**as published** (parameters from the family's source, with the light's radius and a range
+from a documented threshold, see `published_params`) and **fitted** (least squares with
+`attenfit.fit_many`), and returns a `Report`; `Report.write(folder)` writes `report.md`,
+`report.json` (every number), `results.csv` (one row per family x configuration x mode) and
+the figures (PNG and SVG) into a folder that appears only when complete.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .._curves import Family, get_family, list_families
+from .._errors import BadTypeError, BadValueError, UnknownNameError
+from .._truth import emitter_from_dict
+from .._version import __version__
+from . import _figures
+from ._configs import (
+    PLANE_PX,
+    PUBLISHED_CUTOFF,
+    SWEEP_N,
+    Config,
+    dataset_config,
+    default_emitters,
+    emitter_config,
+    emitter_kind,
+)
+from ._evaluate import evaluate_row, failed_row, family_costs, truth_interpolator
+from ._findings import seed_findings
+from ._fit_all import fit_all
+from ._published import published_params, range_of
+from ._report import Report
+
+
+# ============================================================================ building
+def _resolve_families(families: Sequence[str | type] | None) -> list[type]:
+
+    if families is None:
+        return [get_family(n) for n in list_families()]
+    if isinstance(families, str):
+        families = [families]
+    out = []
+    for f in families:
+        if isinstance(f, str):
+            out.append(get_family(f))
+        elif isinstance(f, type) and issubclass(f, Family):
+            out.append(f)
+        else:
+            raise BadTypeError(f"families must be names or Family subclasses, got {f!r}")
+    if not out:
+        raise BadValueError("families must name at least one family")
+    return out
+
+
+def _resolve_emitters(emitters: Sequence[Any] | Mapping[str, Any] | None) -> dict[str, Any]:
+    if emitters is None:
+        return default_emitters()
+    if isinstance(emitters, Mapping):
+        return dict(emitters)
+    if isinstance(emitters, str):
+        emitters = [emitters]
+    out: dict[str, Any] = {}
+    defaults = None
+    for e in emitters:
+        if isinstance(e, str):
+            defaults = defaults or default_emitters()
+            if e not in defaults:
+                raise UnknownNameError(
+                    f"unknown emitter {e!r}; the report knows {', '.join(defaults)}"
+                )
+            out[e] = defaults[e]
+        else:
+            name = emitter_kind(e)
+            k, i = name, 2
+            while k in out:
+                k, i = f"{name}{i}", i + 1
+            out[k] = e
+    return out
+
+
+def _as_float64(ems: dict[str, Any]) -> dict[str, Any]:
+    """The emitters rebuilt with float64 fields (the report computes in float64)."""
+
+    return {k: emitter_from_dict(e.to_dict()) for k, e in ems.items()}
+
+
+def _stack_params(starts: list[dict[str, Any]]) -> dict[str, np.ndarray]:
+    return {k: np.stack([np.asarray(s[k], np.float64) for s in starts]) for k in starts[0]}
+
+
+def build_report(
+    families: Sequence[str | type] | None = None,
+    emitters: Sequence[Any] | Mapping[str, Any] | None = None,
+    datasets: Sequence[Any] | Mapping[str, Any] | None = None,
+    *,
+    fitted: bool = True,
+    sweep_n: int = SWEEP_N,
+    plane_px: int = PLANE_PX,
+    cost: bool = True,
+    progress: Callable[[str], None] | None = None,
+) -> Report:
+    """Compare `families` (default: every registered one) against `emitters` and `datasets`.
+
+    Args:
+        families: family names or classes.
+        emitters: emitters or their names in `default_emitters()` ("sphere", "disk"); a mapping
+            gives them names. Default: the sphere and the disk.
+        datasets: `attenfit.Dataset`s (e.g. Mitsuba renders), or a mapping name -> dataset;
+            each adds a configuration (see the module docstring).
+        fitted: also fit every family (the "fitted" mode); False gives "published" only.
+        sweep_n, plane_px: samples per sweep and pixels per plane side.
+        cost: measure the cost per evaluation of each family.
+        progress: called with one line per stage (the CLI prints it on stderr).
+    """
+    import jax
+
+    say = progress or (lambda s: None)
+    t_start = time.perf_counter()
+    classes = _resolve_families(families)
+    if isinstance(datasets, Mapping):
+        ds_items = list(datasets.items())
+    else:
+        ds_items = []
+        for i, ds in enumerate(datasets or []):
+            prov = dict(getattr(ds, "provenance", {}) or {})
+            ds_items.append((f"{prov.get('generator', 'dataset')}-{i + 1}", ds))
+    if int(sweep_n) < 8 or int(plane_px) < 8:
+        raise BadValueError(f"sweep_n and plane_px must be >= 8, got {sweep_n} and {plane_px}")
+    timings: dict[str, float] = {}
+    configs: list[Config] = []
+    with jax.enable_x64(True):
+        ems = _as_float64(_resolve_emitters(emitters))
+        t = time.perf_counter()
+        for name, em in ems.items():
+            say(f"truth: {name} ({sweep_n} distances, {plane_px} x {plane_px} plane)")
+            configs.append(emitter_config(name, em, int(sweep_n), int(plane_px)))
+        for name, ds in ds_items:
+            say(f"dataset: {name} ({len(ds)} samples)")
+            configs.append(dataset_config(name, ds, int(sweep_n)))
+        timings["truth"] = time.perf_counter() - t
+
+        results: list[dict[str, Any]] = []
+        models: dict[tuple[str, str, str], Any] = {}
+        values: dict[tuple[str, str, str], dict[str, np.ndarray]] = {}
+        t = time.perf_counter()
+        say(f"published: {len(classes)} families x {len(configs)} configurations")
+        pub: dict[tuple[str, str], tuple[dict, str]] = {}
+        for cls in classes:
+            for c in configs:
+                truth_at = truth_interpolator(c)
+                params, note = published_params(cls, c.radius, truth_at)
+                pub[(cls.name, c.name)] = (params, note)
+                model = cls(**params)
+                models[(cls.name, c.name, "published")] = model
+                results.append(
+                    evaluate_row(cls.name, c, "published", model, note=note, store=values)
+                )
+        timings["published"] = time.perf_counter() - t
+
+        painter = _start_prerender(classes, configs, results, models, values) if fitted else None
+        if fitted:
+            t = time.perf_counter()
+            sweep_cfgs = [c for c in configs if c.sweep is not None]
+            say(
+                f"fit: {len(classes)} families x {len(sweep_cfgs)} configurations (one fit_many solve)"
+            )
+            _fit_families(classes, sweep_cfgs, pub, models, results, values)
+            # a plane-only configuration (a dataset image) shows the fits of its emitter kind
+            for c in configs:
+                if c.sweep is None:
+                    for cls in classes:
+                        src = next(
+                            (
+                                s
+                                for s in sweep_cfgs
+                                if s.kind == c.kind and (cls.name, s.name, "fitted") in models
+                            ),
+                            None,
+                        )
+                        if src is not None:
+                            m = models[(cls.name, src.name, "fitted")]
+                            models[(cls.name, c.name, "fitted")] = m
+                            results.append(
+                                evaluate_row(
+                                    cls.name,
+                                    c,
+                                    "fitted",
+                                    m,
+                                    note=f"fitted on {src.name}",
+                                    store=values,
+                                )
+                            )
+            timings["fit"] = time.perf_counter() - t
+
+        findings = seed_findings(classes, configs, results, models)
+    prerendered = painter.result() if painter is not None else {}  # joined before timing costs
+    costs: dict[str, Any] = {}
+    if cost:
+        t = time.perf_counter()
+        say(f"cost: {len(classes)} families")
+        costs = family_costs(
+            [c.name for c in classes],
+            {cls.name: models[(cls.name, configs[0].name, "published")] for cls in classes},
+        )
+        timings["cost"] = time.perf_counter() - t
+
+    meta = {
+        "version": __version__,
+        "created": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
+        "build_seconds": time.perf_counter() - t_start,
+        "timings": timings,
+        "published_cutoff": PUBLISHED_CUTOFF,
+        "sweep_n": int(sweep_n),
+        "plane_px": int(plane_px),
+        "jax": jax.__version__,
+        "backend": jax.default_backend(),
+    }
+    return Report(
+        [c.name for c in classes],
+        configs,
+        results,
+        findings,
+        costs,
+        meta,
+        models,
+        values,
+        prerendered,
+    )
+
+
+class _Painter:
+    """A thread drawing the published figures while the fits run (see `_figures.prerender`)."""
+
+    def __init__(self, report: Report):
+        import threading
+
+        self._report = report
+        self._out: dict[str, tuple[bytes, bytes | None]] = {}
+        self._thread = threading.Thread(target=self._run, name="attenfit-figures", daemon=True)
+        self._thread.start()
+
+    def _run(self) -> None:
+
+        try:
+            self._out = _figures.prerender(self._report)
+        except Exception:  # drawn again, in the main thread, by Report.write
+            self._out = {}
+
+    def result(self) -> dict[str, tuple[bytes, bytes | None]]:
+        self._thread.join()
+        return self._out
+
+
+def _start_prerender(classes, configs, results, models, values) -> _Painter | None:
+    """Start drawing the published figures in a thread (None if threads are unavailable)."""
+    published = [r for r in results if r["mode"] == "published"]
+    draft = Report(
+        [c.name for c in classes], configs, published, [], {}, {}, dict(models), dict(values)
+    )
+    try:
+        return _Painter(draft)
+    except RuntimeError:
+        return None
+
+
+def _fit_range(cls: type, start: Mapping[str, Any]) -> float | None:
+    """The range inside which a windowed family is fitted and judged: its published one."""
+    return range_of(cls(**start))
+
+
+def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
+    """Fit every family on every sweep, in one solve per sample count (`_report_fit`).
+
+    Windowed families are fitted inside their published range (weights 0 beyond it). If the
+    combined solve fails as a whole, each family is fitted on its own with `fit_many`.
+    """
+
+    groups: dict[int, list[Config]] = {}
+    for c in sweep_cfgs:
+        groups.setdefault(int(c.sweep.d.size), []).append(c)
+    for cfgs in groups.values():
+        problems, keys = [], []
+        for cls in classes:
+            for c in cfgs:
+                start = pub[(cls.name, c.name)][0]
+                rg = _fit_range(cls, start)
+                w = (
+                    (c.sweep.d < rg).astype(np.float64)
+                    if rg is not None
+                    else np.ones_like(c.sweep.d)
+                )
+                problems.append((cls, start, c.sweep.d, c.sweep.truth, w))
+                keys.append((cls, c, rg))
+        try:
+            outs = fit_all(problems)
+        except Exception as exc:  # e.g. a user's family that cannot be traced under a switch
+            outs = [None] * len(problems)
+            error = f"{type(exc).__name__}: {exc}"
+
+        def start_of(cls, c):
+            return pub[(cls.name, c.name)][0]
+
+        for (cls, c, rg), out in zip(keys, outs, strict=True):
+            if out is None:
+                results.append(failed_row(cls.name, c, f"fit error: {error}"))
+                continue
+            params, info = out
+            if params is None:
+                results.append(
+                    failed_row(
+                        cls.name, c, f"fit did not converge: {_why(info, start_of(cls, c))}", info
+                    )
+                )
+                continue
+            try:
+                model = cls(**params)
+            except Exception as exc:
+                results.append(failed_row(cls.name, c, f"fitted parameters rejected: {exc}", info))
+                continue
+            models[(cls.name, c.name, "fitted")] = model
+            note = f"free: {', '.join(info['free']) or 'none'}"
+            moved = _moved(info, start_of(cls, c))
+            if moved:  # converged where the loss reached rounding level, the optimum at a limit
+                note += f"; {'; '.join(moved)}: no finite optimum"
+            results.append(
+                evaluate_row(
+                    cls.name, c, "fitted", model, note=note, fit=info, store=values, range_=rg
+                )
+            )
+
+
+def _moved(info: Mapping[str, Any], start: Mapping[str, Any]) -> list[str]:
+    """The positive scalar parameters a fit drove towards 0 or infinity, in words."""
+    moved = []
+    for k, v in (info.get("last_params") or {}).items():
+        s0 = start.get(k)
+        if s0 is None or np.ndim(v) or np.ndim(s0) or not float(s0) > 0:
+            continue
+        if 0 <= float(v) < 1e-2 * float(s0):
+            moved.append(f"{k} heads to 0 ({k} = {float(v):.2g})")
+        elif float(v) > 30 * float(s0):
+            moved.append(f"{k} heads to infinity ({k} = {float(v):.3g})")
+    return moved
+
+
+def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
+    """Why a fit did not converge, in words: a parameter running off to a bound says so."""
+    moved = _moved(info, start)
+    if moved:
+        return (
+            f"no finite optimum: {'; '.join(moved)} after {info.get('steps')} steps, "
+            f"loss {float(info.get('loss', float('nan'))):.2g}"
+        )
+    return str(info.get("message", ""))

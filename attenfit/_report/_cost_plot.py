@@ -1,0 +1,116 @@
+"""Error against cost: one labelled point per family, the Pareto front drawn."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .._shaders import Cost, pareto_front
+
+__all__ = ["plot_cost_vs_error"]
+
+
+def plot_cost_vs_error(
+    errors: Mapping[str, float],
+    costs: Mapping[str, float | Cost],
+    *,
+    by: str = "shader_cost",
+    ax: Any = None,
+    title: str | None = None,
+) -> tuple[Any, Any]:
+    """Error against cost, log-log, one labelled point per family, the Pareto front drawn.
+
+    Returns `(fig, ax)`; draws into `ax` when given. Errors of 0 are drawn at the bottom
+    of the axis (at a tenth of the smallest positive error), infinite ones are left out
+    and named in the legend.
+    """
+    import matplotlib.pyplot as plt
+
+    pf = pareto_front(errors, costs, by=by)
+    finite = {k: v for k, v in pf.error.items() if np.isfinite(v)}
+    positive = [v for v in finite.values() if v > 0]
+    floor = min(positive) / 10 if positive else 1e-8
+    xlabel = {
+        "shader_cost": "shader cost (full-rate ALU instructions per evaluation)",
+        "ns_per_eval": "measured time per evaluation (ns)",
+        "ratio_to_inverse_square": "measured time relative to inverse-square",
+    }[by]
+    style = {"font.size": 9, "axes.grid": True, "grid.alpha": 0.3, "axes.titlesize": 10}
+    with plt.rc_context(style):
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(7, 4.8), layout="constrained")
+        else:
+            fig = ax.figure
+        xs = {k: max(pf.cost[k], 0.5) for k in finite}
+        ys = {k: max(v, floor) for k, v in finite.items()}
+        off = [k for k in finite if k not in pf.front]
+        on = [k for k in pf.front if k in finite]
+        ax.scatter([xs[k] for k in off], [ys[k] for k in off], c="0.55", s=22, label="dominated")
+        ax.scatter([xs[k] for k in on], [ys[k] for k in on], c="C3", s=30, zorder=3,
+                   label="Pareto front")  # fmt: skip
+        if on:
+            fx, fy = [xs[k] for k in on], [ys[k] for k in on]
+            ax.step(fx, fy, where="post", color="C3", lw=1.2, zorder=2)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        groups: dict[tuple[float, float], list[str]] = {}
+        for k in finite:  # families at the same point share one label
+            groups.setdefault((xs[k], ys[k]), []).append(k)
+        _place_labels(ax, groups, pf.front)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel("max relative error")
+        bad = sorted(k for k, v in pf.error.items() if not np.isfinite(v))
+        if bad:
+            ax.plot([], [], " ", label=f"infinite error: {', '.join(bad)}")
+        ax.legend(loc="best", fontsize=7)
+        if title:
+            ax.set_title(title)
+    return fig, ax
+
+
+def _place_labels(ax: Any, groups: Mapping[tuple[float, float], list[str]], front) -> None:
+    """Label each point, moving a label up or down (in points) until it overlaps no other."""
+    ax.autoscale_view()
+    ax.figure.canvas.draw()  # settle the layout, so that the data-to-display transform holds
+    to_pt = 72.0 / ax.figure.dpi
+    frame = [v * to_pt for v in ax.get_window_extent().extents]
+    placed: list[tuple[float, float, float, float]] = []
+    for x, y in groups:  # the markers are obstacles too
+        px, py = (v * to_pt for v in ax.transData.transform((x, y)))
+        placed.append((px - 3, py - 3, px + 3, py + 3))
+    offsets = [
+        (side, dy) for dy in (3, -10, 10, -17, 17, -24, 24, -31, 31, -38, 38) for side in (1, -1)
+    ]
+    order = sorted(groups.items(), key=lambda item: (item[0][0], -item[0][1]))
+    for (x, y), ks in order:
+        text = ", ".join(ks)
+        px, py = (v * to_pt for v in ax.transData.transform((x, y)))
+        w, h = 4.3 * len(text), 8.0  # 7-point labels
+
+        def box_of(o: tuple[int, float], px=px, py=py, w=w, h=h) -> tuple[float, ...]:
+            side, dy = o
+            left = px + 4 if side > 0 else px - 4 - w
+            return (left, py + dy, left + w, py + dy + h)
+
+        def clash(o: tuple[int, float]) -> float:
+            box = box_of(o)
+            out = max(0.0, frame[1] - box[1]) + max(0.0, box[3] - frame[3])
+            out += max(0.0, box[2] - frame[2]) + max(0.0, frame[0] - box[0])
+            area = sum(
+                max(0.0, min(box[2], b[2]) - max(box[0], b[0]))
+                * max(0.0, min(box[3], b[3]) - max(box[1], b[1]))
+                for b in placed
+            )
+            return area + 100.0 * out
+
+        best = min(offsets, key=lambda o: (clash(o), offsets.index(o)))
+        placed.append(box_of(best))
+        side, dy = best
+        on_front = any(k in front for k in ks)
+        label = ax.annotate(text, (x, y), xytext=(4 * side, dy), textcoords="offset points",
+                            fontsize=7, color="C3" if on_front else "0.3",
+                            ha="left" if side > 0 else "right",
+                            arrowprops=None if dy == 3 else {"arrowstyle": "-", "color": "0.7", "lw": 0.5})  # fmt: skip
+        label.set_in_layout(False)  # labels must not move the axes they were placed in

@@ -1,0 +1,22 @@
+"""Stage 6, scenes: a scene file (`_toml`) read into a `Scene` (`_scene`, `_types`), its
+ground truth at exactly its receivers (`_truth`), every family fitted there (`_fits`) and
+the cheapest within its tolerance recommended (`_recommend`, `_recommendation`).
+
+Imports every stage below it (curves, truth, fitting, shaders, report's plots).
+"""
+
+from ._recommend import recommend as recommend
+from ._recommendation import Candidate as Candidate
+from ._recommendation import Recommendation as Recommendation
+from ._recommendation import plot_scene_errors as plot_scene_errors
+from ._scene import Scene as Scene
+from ._toml import SCENE_KEYS as SCENE_KEYS
+from ._truth import spot_profile as spot_profile
+from ._types import LIGHT_KINDS as LIGHT_KINDS
+from ._types import RECEIVER_KINDS as RECEIVER_KINDS
+from ._types import SPOT_PROFILES as SPOT_PROFILES
+from ._types import DistanceDistribution as DistanceDistribution
+from ._types import LightTruth as LightTruth
+from ._types import PlaneReceivers as PlaneReceivers
+from ._types import PointReceivers as PointReceivers
+from ._types import SceneLight as SceneLight

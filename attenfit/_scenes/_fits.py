@@ -1,0 +1,303 @@
+"""Each family fitted to a scene's lights, and the spot falloff variants: the arrays of each
+light's judged receivers, the start and free parameters of a fit, and the judged error."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._curves import (
+    SPOT_FALLOFFS,
+    Family,
+    SpotFalloff,
+    SpotFrostbite,
+    SpotThreeJS,
+    float32_family,
+    spot_frostbite,
+    spot_threejs,
+)
+from .._errors import AttenfitError
+from .._fit import fit, fit_many
+from .._shaders import measure_throughput, shader_cost
+from ._scene import Scene
+from ._types import LightTruth
+
+
+# ----------------------------------------------------------------------------- per-light data
+@dataclasses.dataclass(frozen=True)
+class LightData:
+    """Arrays of one light's judged receivers (float64 numpy)."""
+
+    d: np.ndarray  # distance (capsule: to the segment)
+    wpt: np.ndarray  # point-light weight I g max(0, n.l)
+    E_true: np.ndarray
+    E_irr: np.ndarray  # the emitter's irradiance before a spot's profile
+    cos_s: np.ndarray  # cos of the angle from a spot's axis (1 otherwise)
+    theta: np.ndarray
+    denom: np.ndarray  # the judged error's denominator
+    peak: float
+    radius: float
+    range: float | None
+    spot: tuple[float, float] | None  # (umbra, penumbra) radians
+
+
+def light_data(scene: Scene, truth: LightTruth) -> LightData:
+    light = scene.lights[truth.light]
+    ds = truth.dataset
+    j = truth.judged
+    d = np.asarray(ds.distance(), dtype=np.float64)[j]
+    wpt = np.asarray(ds.weight(), dtype=np.float64)[j]
+    E_irr = np.asarray(ds.E, dtype=np.float64)[j]
+    E_true = E_irr * truth.profile[j]
+    peak = float(E_true.max()) if E_true.size else 0.0
+    denom = np.maximum(E_true, scene.error_floor * peak)
+    denom = np.where(denom > 0, denom, peak if peak > 0 else 1.0)
+    spot = (light.umbra_rad, light.penumbra_rad) if light.is_spot else None
+    return LightData(
+        d=d,
+        wpt=wpt,
+        E_true=E_true,
+        E_irr=E_irr,
+        cos_s=np.cos(truth.theta[j]),
+        theta=truth.theta[j],
+        denom=denom,
+        peak=peak,
+        radius=light.radius,
+        range=light.range,
+        spot=spot,  # type: ignore[arg-type]
+    )
+
+
+# ----------------------------------------------------------------------------- fitting
+_TIES = {
+    # family -> (tied parameter, its value from (r, range))
+    "madams_tan": ("d_max", lambda r, R: R - r),
+    "madams_rational": ("d_max", lambda r, R: R - r),
+    "madams_cutoff": ("cutoff", lambda r, R: (r / R) ** 2),
+}
+
+
+def _range_param(cls: type[Family]) -> str | None:
+    if cls.name in _TIES:
+        return _TIES[cls.name][0]
+    return cls.range_param
+
+
+#: A light with no range gives windowed families a range this many times the farthest
+#: receiver (where their window is below 1e-4 of relative effect), unless the family's
+#: own default frees its range (`just_cause_2`, whose shape needs it).
+FAR_RANGE = 10.0
+
+
+def fit_plan(
+    cls: type[Family], data: LightData, d_hi: float, knots: tuple[float, ...]
+) -> tuple[dict[str, Any], tuple[str, ...]]:
+    """Start values and free parameters of `cls` for one light."""
+    vals = dict(cls.defaults())
+    rp = _range_param(cls)
+    for p in cls.param_names():
+        if p == rp:
+            continue
+        power = cls.length_power(p)
+        if power == 1:
+            vals[p] = data.radius * (2.0 if p == "kl" else 1.0)
+        elif power == 2:
+            vals[p] = data.radius**2
+    if cls.name == "spline":
+        k = np.asarray(knots)
+        vals["knot_values"] = -np.log(k * k + data.radius**2)
+        vals["knots"] = knots
+    free = tuple(cls.default_free)
+    if rp is not None:
+        R = data.range
+        if R is None and rp in free:
+            vals[rp] = 2.0 * d_hi
+        else:
+            free = tuple(p for p in free if p != rp)
+            R = FAR_RANGE * d_hi if R is None else R
+            vals["R"] = R
+            vals[rp] = _TIES[cls.name][1](data.radius, R) if cls.name in _TIES else R
+    return vals, free
+
+
+def _tied_fn(cls: type[Family]):
+    tied, rule = _TIES[cls.name]
+
+    def fn(d, p):
+        return cls(r=p["r"], **{tied: rule(p["r"], p["R"])})(d)
+
+    return fn
+
+
+_TIED_FNS: dict[str, Any] = {}
+
+
+def _bucket(n: int, lo: int) -> int:
+    """The next power of two >= max(n, lo): padded shapes reuse compiled solves."""
+    return max(lo, 1 << max(0, (n - 1).bit_length()))
+
+
+def fit_group(
+    cls: type[Family],
+    datas: Sequence[LightData],
+    plans: Sequence[tuple[dict[str, Any], tuple[str, ...]]],
+) -> list[tuple[Family, bool, str]]:
+    """Fit `cls` to lights sharing one set of free parameters; (model, converged, message)."""
+    free = plans[0][1]
+    starts = [p[0] for p in plans]
+    if not free:
+        return [
+            (cls(**{k: s[k] for k in cls.param_names()}), True, "no free parameter") for s in starts
+        ]
+    knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.name == "spline" else {}
+    n = _bucket(max(len(x.d) for x in datas), 64)
+    b = _bucket(len(datas), 2)
+    # pad every light to n receivers with zero-weight copies, and the batch to b problems with
+    # copies of the first light (their results are dropped)
+    D, T, W = (np.empty((b, n)) for _ in range(3))
+    rows = [*range(len(datas)), *([0] * (b - len(datas)))]
+    for k, src in enumerate(rows):
+        x = datas[src]
+        m = len(x.d)
+        ok = x.E_irr > 0
+        target = np.where(ok, x.E_irr / x.wpt, 1.0)
+        w = np.where(ok, x.E_true / x.denom, 0.0)
+        D[k] = np.concatenate([x.d, np.full(n - m, x.d[0])])
+        T[k] = np.concatenate([target, np.full(n - m, target[0])])
+        W[k] = np.concatenate([w, np.zeros(n - m)])
+    starts = [starts[src] for src in rows]
+    if cls.name in _TIES:
+        fn = _TIED_FNS.setdefault(cls.name, _tied_fn(cls))
+        params = {"r": np.array([s["r"] for s in starts]), "R": np.array([s["R"] for s in starts])}
+        res = fit_many(
+            (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)
+        )
+        tied, rule = _TIES[cls.name]
+        out = []
+        for k in range(len(datas)):
+            r, R = float(res[k].params["r"]), float(starts[k]["R"])
+            out.append((cls(r=r, **{tied: rule(r, R)}), res[k].converged, res[k].message))
+        return out
+    batched = {p: np.array([s[p] for s in starts]) for p in cls.param_names()}
+    model = cls(**batched, **knots_kw)
+    res = fit_many(model, D, T, weights=W, free=free)
+    return [(res[k].model, res[k].converged, res[k].message) for k in range(len(datas))]
+
+
+def shade(model: Family, x: np.ndarray, float32: bool) -> np.ndarray:
+    if float32:
+        return np.asarray(float32_family(model)(jnp.asarray(x, jnp.float32)), dtype=np.float64)
+    return np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+
+
+def judged_errors(data: LightData, f: np.ndarray, g: np.ndarray) -> np.ndarray:
+    E = data.wpt * f * g
+    with np.errstate(invalid="ignore", over="ignore"):
+        err = np.abs(E - data.E_true) / data.denom
+    return np.where(np.isfinite(err), err, np.inf)
+
+
+# ----------------------------------------------------------------------------- spot falloffs
+@dataclasses.dataclass(frozen=True)
+class SpotVariant:
+    name: str  # e.g. "spot_threejs (fitted angles)"
+    curve: str
+    models: tuple[SpotFalloff | None, ...]  # per light
+    g: tuple[np.ndarray, ...]  # per light (ones for non-spots)
+    cost: float
+    ns: float | None
+
+
+def _fit_falloff(x: LightData, curve: str) -> SpotFalloff:
+    """Fit umbra and penumbra of a spot falloff to a light's true profile."""
+    umbra, penumbra = x.spot  # type: ignore[misc]
+    profile = x.E_true / np.where(x.E_irr > 0, x.E_irr, 1)
+    w = x.E_irr / x.denom
+    frac = min(max(penumbra / umbra, 0.02), 0.98)
+    fn = _FALLOFF_FNS[curve]
+    res = fit(
+        (fn, {"umbra": umbra, "frac": frac}, {"umbra": "positive", "frac": "unit"}),
+        x.theta,
+        profile,
+        loss="absolute",
+        weights=w,
+    )
+    u = float(res.params["umbra"])
+    return SPOT_FALLOFFS[curve](umbra=u, penumbra=u * float(res.params["frac"]))
+
+
+def _falloff_fn(curve: str):
+    spot = spot_frostbite if curve == "frostbite" else spot_threejs
+
+    def fn(theta, p):
+        u = p["umbra"]
+        return spot(jnp.cos(theta), u, u * p["frac"])
+
+    return fn
+
+
+_FALLOFF_FNS = {c: _falloff_fn(c) for c in ("frostbite", "threejs")}
+
+
+def spot_variants(
+    scene: Scene, datas: Sequence[LightData], measure: bool
+) -> tuple[list[SpotVariant], list[dict[str, Any]]]:
+    spots = [k for k, x in enumerate(datas) if x.spot is not None]
+    if not spots:
+        return [
+            SpotVariant(
+                "",
+                "",
+                tuple(None for _ in datas),
+                tuple(np.ones_like(x.d) for x in datas),
+                0.0,
+                0.0 if measure else None,
+            )
+        ], []
+    variants, fits = [], []
+    costs = {c: shader_cost(cls()) for c, cls in SPOT_FALLOFFS.items()}
+    ns: dict[str, float] = {}
+    if measure:
+        timed = measure_throughput([SpotFrostbite(), SpotThreeJS()], n=1 << 16, repeats=5)
+        ns = {c: timed[cls.name][0] for c, cls in SPOT_FALLOFFS.items()}
+    for curve in ("frostbite", "threejs"):
+        for fitted in (False, True):
+            models: list[SpotFalloff | None] = []
+            gs = []
+            for k, x in enumerate(datas):
+                if x.spot is None:
+                    models.append(None)
+                    gs.append(np.ones_like(x.d))
+                    continue
+                if fitted:
+                    try:
+                        m = _fit_falloff(x, curve)
+                        g = shade(m, x.cos_s, scene.float32)
+                    except AttenfitError:
+                        m, g = None, np.full_like(x.d, np.nan)
+                else:
+                    m = SPOT_FALLOFFS[curve](umbra=x.spot[0], penumbra=x.spot[1])
+                    g = shade(m, x.cos_s, scene.float32)
+                models.append(m)
+                gs.append(g)
+                err = judged_errors(x, x.E_irr / x.wpt, g)
+                fits.append(
+                    {
+                        "light": k,
+                        "variant": f"spot_{curve} ({'fitted' if fitted else 'scene'} angles)",
+                        "umbra": math.degrees(float(m.umbra)) if m is not None else math.nan,
+                        "penumbra": math.degrees(float(m.penumbra)) if m is not None else math.nan,
+                        "error": float(err.max()) if err.size else 0.0,
+                        "shader_cost": costs[curve],
+                    }
+                )
+            name = f"spot_{curve} ({'fitted' if fitted else 'scene'} angles)"
+            variants.append(
+                SpotVariant(name, curve, tuple(models), tuple(gs), costs[curve], ns.get(curve))
+            )
+    return variants, fits

@@ -1,0 +1,319 @@
+"""Recommend the cheapest attenuation family that a scene's receivers cannot tell from the truth.
+
+`recommend(scene)`:
+
+1. **Truth, only where the scene looks.** `Scene.ground_truth()`: the exact irradiance of
+   each of the scene's lights at exactly the scene's receivers (no other radius, distance
+   or angle is generated).
+2. **Fit every family the scene's constraints allow**, per light, in one `fit_many` solve
+   per family (lights grouped by whether they have a range). The residual of a receiver is
+   its judged error (below), so the least-squares fit aims at what is judged. Length
+   parameters start at the light's radius; a light's `range` is pinned into the family's
+   range parameter (`r_max`, `cutoff`, `range`; Madams' surface-distance `d_max = range - r`
+   and `madams_cutoff`'s `cutoff = (r/range)^2` are tied to the fitted `r`); a light with no
+   range leaves a window's range free. `spline` puts its knots over the scene's distances.
+3. **Spots** fit their angular falloff too: `spot_frostbite` (t^2) and `spot_threejs`
+   (smoothstep) of `attenfit.directional`, each with the scene's umbra and penumbra as given
+   and with both angles fitted (weighted like the distance fit). Each family is paired with
+   the cheapest falloff variant that keeps it within tolerance (else the most accurate).
+4. **Judge** each candidate by its largest error over the judged receivers of every light:
+   `|E_model - E_true| / max(E_true, error_floor * E_peak)`, with `E_peak` the light's
+   brightest judged receiver; receivers whose truth is 0 (outside a spot's cone) are judged
+   relative to `E_peak` (or to the floor, if one is set). Receivers beyond a light's range
+   are not judged (the engine culls them), nor are receivers facing away from the light's
+   centre (every point-light model gives 0 there; the count of those that the truth still
+   lights is reported). With `float32`, candidates are evaluated in float32.
+5. **Rank** the candidates within tolerance by shader cost (`attenfit.cost.shader_cost`:
+   the per-evaluation operation count of the traced expression, weighted by GPU issue
+   rates), then by error, then by measured time (`attenfit.cost.measure_throughput`, when
+   `measure=True`; reported for every candidate). The operation count is the primary key
+   because it is deterministic and describes the GPU shader the user will ship, while the
+   measured time is of XLA on this machine's CPU (or GPU) and moves by 10-30% between runs on
+   a shared machine; families with the same operation count (`disk_facing`,
+   `unreal_epsilon`, `yuksel_adhoc` are one expression, 1/(d^2 + c)) are then told apart by
+   accuracy, not by timing noise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._curves import Family, get_family, list_families
+from .._errors import AttenfitError, BadTypeError, BadValueError
+from .._shaders import LANGUAGES, export, measure_throughput, shader_cost
+from ._fits import LightData, fit_group, fit_plan, judged_errors, light_data, shade, spot_variants
+from ._recommendation import Candidate, Recommendation, pct
+from ._scene import Scene
+from ._types import LightTruth
+
+__all__ = ["recommend"]
+
+
+# ----------------------------------------------------------------------------- recommend
+def _candidate_names(scene: Scene) -> list[str]:
+    return list(scene.families) if scene.families is not None else list_families()
+
+
+def check_reaches_zero(model: Family, R: float) -> str | None:
+    """None if `model` is 0 beyond `R` and at `R` (to rounding: 1e-9 of f(R/2)), else why not."""
+    x = np.array([R, R * (1 + 1e-6), 2 * R, R / 2])
+    v = np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+    if v[1] == 0 and v[2] == 0 and abs(v[0]) <= 1e-9 * abs(v[3]):
+        return None
+    where = v[0] if v[1] == 0 and v[2] == 0 else v[1]
+    return f"does not reach 0 at the range {R:g} (f = {where:.3g} there)"
+
+
+def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
+    """Fit and judge every family on `scene`; recommend the cheapest within tolerance.
+
+    See the module docstring for how the truth is generated, fitted, judged and ranked.
+    `measure=False` skips the timing (the ranking then uses the operation count and the
+    error only; that takes a few seconds less).
+    """
+    if not isinstance(scene, Scene):
+        raise BadTypeError(f"recommend takes an attenfit.Scene, got {type(scene).__name__}")
+    truths = scene.ground_truth()
+    datas = [light_data(scene, t) for t in truths]
+    for k, x in enumerate(datas):
+        if x.d.size == 0:
+            raise BadValueError(
+                f"{scene.source}: [[lights]][{k}]: no receiver can be judged for this light "
+                "(all are beyond its range or face away from it)"
+            )
+    d_all = np.concatenate([x.d for x in datas])
+    d_lo, d_hi = float(d_all.min()), float(d_all.max())
+    knots = (
+        tuple(float(k) for k in np.geomspace(d_lo, d_hi, 6)) if d_hi > d_lo else (d_lo, d_lo * 2)
+    )
+    variants, directional_fits = spot_variants(scene, datas, measure)
+
+    fitted: dict[str, tuple[list[Family], list[bool], list[str]]] = {}
+    candidates: list[Candidate] = []
+    for name in _candidate_names(scene):
+        cls = get_family(name)
+        if scene.reach_zero_at_range and cls.window == "none":
+            candidates.append(
+                Candidate(name, "excluded", "no window: it cannot reach 0 at the range")
+            )
+            continue
+        try:
+            results: list[Any] = [None] * len(datas)
+            plans = [fit_plan(cls, x, d_hi, knots) for x in datas]
+            for free in dict.fromkeys(p[1] for p in plans):
+                group = [k for k, p in enumerate(plans) if p[1] == free]
+                out = fit_group(cls, [datas[k] for k in group], [plans[k] for k in group])
+                for k, r in zip(group, out, strict=True):
+                    results[k] = r
+        except AttenfitError as exc:
+            candidates.append(Candidate(name, "fail", f"could not be fitted: {exc}"))
+            continue
+        fitted[name] = (
+            [r[0] for r in results],
+            [bool(r[1]) for r in results],
+            [r[2] for r in results],
+        )
+
+    costs: dict[str, float] = {}
+    for name, (models, _, _) in fitted.items():
+        try:
+            costs[name] = shader_cost(models[0])
+        except (AttenfitError, ValueError):
+            costs[name] = shader_cost(get_family(name)())
+    ns: dict[str, float] = {}
+    if measure and fitted:
+        to_time = []
+        for models, _, _ in fitted.values():
+            m = models[0]
+            if all(np.all(np.isfinite(np.asarray(v))) for v in m.params().values()):
+                to_time.append(m)
+        if to_time:
+            timed = measure_throughput(to_time, n=1 << 16, repeats=5)
+            ns = {k: v[0] for k, v in timed.items()}
+
+    curves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name, (models, conv, msgs) in fitted.items():
+        f_by_light = []
+        bad = None
+        for x, m in zip(datas, models, strict=True):
+            try:
+                f_by_light.append(shade(m, x.d, scene.float32))
+            except AttenfitError as exc:
+                bad = str(exc)
+                f_by_light.append(np.full_like(x.d, np.nan))
+        # choose the spot falloff variant for this family
+        best = None
+        for v in variants:
+            errs = [judged_errors(x, f, g) for x, f, g in zip(datas, f_by_light, v.g, strict=True)]
+            e = max(float(er.max()) for er in errs)
+            key_pass = e <= scene.tolerance
+            rank = (0, v.cost, e) if key_pass else (1, e, v.cost)
+            if best is None or rank < best[0]:
+                best = (rank, v, errs, e)
+        assert best is not None
+        _, v, errs, e = best
+        total_cost = costs[name] + v.cost
+        total_ns = (ns[name] + v.ns) if (name in ns and v.ns is not None) else None
+        params = tuple(_plain_params(m) for m in models)
+        dparams = tuple(
+            None
+            if m is None
+            else {
+                "umbra": math.degrees(float(m.umbra)),
+                "penumbra": math.degrees(float(m.penumbra)),
+            }
+            for m in v.models
+        )
+        converged = all(conv)
+        message = "; ".join(dict.fromkeys(msgs))
+        status, reason = "pass", "within tolerance"
+        if bad is not None or not math.isfinite(e):
+            status, reason = (
+                "fail",
+                f"non-finite values at the scene's receivers{': ' + bad if bad else ''}",
+            )
+        elif e > scene.tolerance:
+            status = "fail"
+            reason = f"error {pct(e)} > tolerance {pct(scene.tolerance)}"
+            worst = int(np.argmax([er.max() for er in errs]))
+            x = datas[worst]
+            at = float(x.d[int(np.argmax(errs[worst]))])
+            reason += f" (worst at d = {at:.3g} m, d/r = {at / x.radius:.3g}, light {worst})"
+            if not converged:
+                reason += f"; the fit did not converge ({_short(msgs)})"
+        elif not converged:
+            reason = f"within tolerance, though the fit did not converge ({_short(msgs)})"
+        if status == "pass" and scene.reach_zero_at_range:
+            for x, m in zip(datas, models, strict=True):
+                problem = check_reaches_zero(m, float(x.range))  # type: ignore[arg-type]
+                if problem:
+                    status, reason = "fail", problem
+                    break
+        candidates.append(
+            Candidate(
+                family=name,
+                status=status,
+                reason=reason,
+                error=e,
+                error_by_light=tuple(float(er.max()) for er in errs),
+                shader_cost=total_cost,
+                ns_per_eval=total_ns,
+                params=params,
+                converged=converged,
+                message=message,
+                directional=v.name or None,
+                directional_params=dparams if v.name else (),
+                models=tuple(models),
+                spot_models=v.models,
+            )
+        )
+        curves[name] = (
+            np.concatenate([x.d / x.radius for x in datas]),
+            np.concatenate(errs),
+        )
+
+    def cost_key(c: Candidate):
+        return (
+            c.shader_cost,
+            c.error,
+            c.ns_per_eval if c.ns_per_eval is not None else 0.0,
+            c.family,
+        )
+
+    passing = sorted((c for c in candidates if c.status == "pass"), key=cost_key)
+    failing = sorted(
+        (c for c in candidates if c.status == "fail"),
+        key=lambda c: (
+            c.error if c.error is not None and math.isfinite(c.error) else math.inf,
+            c.family,
+        ),
+    )
+    excluded = [c for c in candidates if c.status == "excluded"]
+    ordered = (*passing, *failing, *excluded)
+    winner = passing[0] if passing else None
+    runner_up = None
+    if len(passing) > 1:
+        runner_up = passing[1]
+    elif winner is not None and failing:
+        runner_up = failing[0]
+    judged = [c for c in candidates if c.error is not None and math.isfinite(c.error)]
+    closest = min(judged, key=lambda c: (c.error, c.shader_cost)) if judged else None
+    shaders = _shaders(winner, len(datas)) if winner is not None else {}
+    truth = tuple(_truth_summary(scene, t, x) for t, x in zip(truths, datas, strict=True))
+    return Recommendation(
+        scene=scene,
+        candidates=ordered,
+        winner=winner,
+        runner_up=runner_up,
+        closest=closest,
+        shaders=shaders,
+        truth=truth,
+        directional_fits=tuple(directional_fits),
+        measured=bool(measure),
+        curves=curves,
+    )
+
+
+def _short(messages: Sequence[str]) -> str:
+    """The first sentence of the first message that is not plain "converged"."""
+    for m in messages:
+        if m.strip() != "converged":
+            first = m.replace("optimistix: ", "").split(". ")[0].strip().rstrip(".")
+            return first
+    return "converged"
+
+
+def _plain_params(model: Family) -> dict[str, Any]:
+    out = {}
+    for k, v in model.params().items():
+        a = np.asarray(v, dtype=np.float64)
+        out[k] = float(a) if a.ndim == 0 else a.tolist()
+    return out
+
+
+def _truth_summary(scene: Scene, t: LightTruth, x: LightData) -> dict[str, Any]:
+    light = scene.lights[t.light]
+    d = np.asarray(t.dataset.distance(), dtype=np.float64)
+    return {
+        "light": t.light,
+        "kind": light.kind,
+        "radius": light.radius,
+        "range": light.range,
+        "receivers": len(t.dataset),
+        "judged": int(t.judged.sum()),
+        "d_min": float(d.min()),
+        "d_max": float(d.max()),
+        "judged_d_min": float(x.d.min()),
+        "judged_d_max": float(x.d.max()),
+        "beyond_range": t.beyond_range,
+        "unlit": t.unlit,
+        "peak_irradiance": x.peak,
+    }
+
+
+def _shaders(winner: Candidate, n_lights: int) -> dict[str, str]:
+    """The winner's exported function per language (baked for one light, uniforms for several)."""
+    out = {}
+    model = winner.models[0]
+    spot = next((m for m in winner.spot_models if m is not None), None)
+    for lang in LANGUAGES:
+        parts = []
+        if n_lights > 1:
+            parts.append(
+                "// several lights: parameters are uniforms (C: arguments); per-light values are in recommendation.md\n"
+            )
+            parts.append(export(model, lang, uniforms=True))
+        else:
+            parts.append(export(model, lang))
+        if spot is not None:
+            parts.append(
+                "\n// spot falloff: the argument d is cos(angle between the spot direction and the light-to-receiver direction)\n"
+            )
+            parts.append(export(spot, lang, name="attenfit_spot_falloff", uniforms=n_lights > 1))
+        out[lang] = "".join(parts)
+    return out

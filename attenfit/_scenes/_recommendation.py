@@ -1,0 +1,346 @@
+"""What `recommend` returns: a `Candidate` per family and the `Recommendation` (its Markdown,
+JSON, shader files and error figure)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+import numpy as np
+
+from .._atomic import atomic_dir
+from .._curves import Family, SpotFalloff
+from ._scene import Scene
+
+
+# ----------------------------------------------------------------------------- records
+@dataclasses.dataclass(frozen=True)
+class Candidate:
+    """One family judged on a scene.
+
+    `status` is "pass" (within tolerance), "fail" (error over tolerance, a non-finite value,
+    or a constraint broken after the fit) or "excluded" (a constraint rules the family out
+    before fitting); `reason` says why in one line. `error` is the largest judged error over
+    every light, `error_by_light` per light. `params` are the fitted parameters per light;
+    for spots `directional` names the chosen falloff variant and `directional_params` its
+    angles (degrees) per light (None for lights that are not spots). `shader_cost` (and
+    `ns_per_eval`, when measured) include the falloff's.
+    """
+
+    family: str
+    status: str
+    reason: str
+    error: float | None = None
+    error_by_light: tuple[float, ...] = ()
+    shader_cost: float | None = None
+    ns_per_eval: float | None = None
+    params: tuple[dict[str, Any], ...] = ()
+    converged: bool | None = None
+    message: str = ""
+    directional: str | None = None
+    directional_params: tuple[dict[str, float] | None, ...] = ()
+    models: tuple[Family, ...] = dataclasses.field(default=(), repr=False, compare=False)
+    spot_models: tuple[SpotFalloff | None, ...] = dataclasses.field(
+        default=(), repr=False, compare=False
+    )
+
+    @property
+    def label(self) -> str:
+        """The family, with its spot falloff if any."""
+        return self.family if self.directional is None else f"{self.family} + {self.directional}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "family": self.family,
+            "status": self.status,
+            "reason": self.reason,
+            "error": _plain(self.error),
+            "error_by_light": [_plain(e) for e in self.error_by_light],
+            "shader_cost": self.shader_cost,
+            "ns_per_eval": self.ns_per_eval,
+            "params": list(self.params),
+            "converged": self.converged,
+            "message": self.message,
+            "directional": self.directional,
+            "directional_params": list(self.directional_params),
+        }
+
+
+def _plain(x: float | None) -> float | str | None:
+    if x is None:
+        return None
+    return float(x) if math.isfinite(x) else str(float(x))
+
+
+@dataclasses.dataclass(frozen=True)
+class Recommendation:
+    """What `recommend` found for a scene.
+
+    `winner` is the cheapest candidate within tolerance (None when none is), `runner_up` the
+    next cheapest within tolerance (or, when only the winner passes, the most accurate of
+    the rest, with `runner_up.status` "fail"), `closest` the most accurate candidate (the one
+    to look at when nothing passes). `candidates` lists every family: passing ones by cost,
+    then failing ones by error, then excluded ones. `shaders` maps "glsl", "hlsl", "wgsl",
+    "c" to the winner's exported function(s). `truth` summarises the generated
+    configurations per light; `directional_fits` the spot falloff fits.
+    """
+
+    scene: Scene
+    candidates: tuple[Candidate, ...]
+    winner: Candidate | None
+    runner_up: Candidate | None
+    closest: Candidate | None
+    shaders: Mapping[str, str]
+    truth: tuple[dict[str, Any], ...]
+    directional_fits: tuple[dict[str, Any], ...]
+    measured: bool
+    curves: Mapping[str, tuple[np.ndarray, np.ndarray]] = dataclasses.field(
+        default_factory=dict, repr=False, compare=False
+    )
+
+    @property
+    def tolerance(self) -> float:
+        return self.scene.tolerance
+
+    def summary(self) -> str:
+        """One line: the winner with its error and cost, or that nothing is within tolerance."""
+        tol = pct(self.tolerance)
+        if self.winner is not None:
+            w = self.winner
+            return (
+                f"recommended: {w.label} (max error {pct(w.error)} <= tolerance {tol}, "
+                f"shader cost {w.shader_cost:g})"
+            )
+        c = self.closest
+        closest = f"; closest: {c.label} with max error {pct(c.error)}" if c else ""
+        return f"no family meets the tolerance {tol}{closest}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (the scene, the generated configurations, every candidate)."""
+        return {
+            "format": "attenfit.recommendation",
+            "version": 1,
+            "scene": self.scene.to_dict(),
+            "source": self.scene.source,
+            "tolerance": self.tolerance,
+            "error_floor": self.scene.error_floor,
+            "summary": self.summary(),
+            "ranking": "shader_cost, then error, then measured ns_per_eval",
+            "measured": self.measured,
+            "winner": None if self.winner is None else self.winner.to_dict(),
+            "runner_up": None if self.runner_up is None else self.runner_up.to_dict(),
+            "closest": None if self.closest is None else self.closest.to_dict(),
+            "candidates": [c.to_dict() for c in self.candidates],
+            "truth": list(self.truth),
+            "directional_fits": list(self.directional_fits),
+            "shaders": dict(self.shaders),
+        }
+
+    def to_markdown(self) -> str:
+        """A human-readable report: verdict, the winner's shader code, a table of every family."""
+        s = self.scene
+        title = s.name or s.source
+        lines = [f"# Recommendation for {title}", ""]
+        if s.description:
+            lines += [s.description.strip(), ""]
+        lines += [f"**{self.summary()}**", ""]
+        floor = f", error floor {pct(s.error_floor)} of each light's peak" if s.error_floor else ""
+        cons = [
+            c
+            for c, on in (
+                ("reach 0 at the range", s.reach_zero_at_range),
+                ("float32 shading", s.float32),
+            )
+            if on
+        ]
+        lines += [
+            f"Tolerance {pct(s.tolerance)} (max relative error of the irradiance){floor}; "
+            f"constraints: {', '.join(cons) or 'none'}. Ranked by shader cost (operation count), "
+            f"then error{', then measured time' if self.measured else ''}.",
+            "",
+            "## What was generated (only the scene's configurations)",
+            "",
+            "| light | kind | radius | range | receivers | judged | d min | d max | beyond range | unlit |",
+            "|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        for t in self.truth:
+            lines.append(
+                f"| {t['light']} | {t['kind']} | {t['radius']:g} | {t['range'] if t['range'] is not None else '-'} "
+                f"| {t['receivers']} | {t['judged']} | {t['d_min']:.4g} | {t['d_max']:.4g} "
+                f"| {t['beyond_range']} | {t['unlit']} |"
+            )
+        lines.append("")
+        for label, c in (("Winner", self.winner), ("Runner-up", self.runner_up)):
+            if c is None:
+                continue
+            note = "" if c.status == "pass" else " (not within tolerance)"
+            lines += [f"## {label}: {c.label}{note}", ""]
+            lines += [
+                f"max error {pct(c.error)}, shader cost {c.shader_cost:g}"
+                + (f", {c.ns_per_eval:.3g} ns/eval measured" if c.ns_per_eval is not None else ""),
+                "",
+            ]
+            lines += _param_lines(c)
+            lines.append("")
+        if self.winner is None and self.closest is not None:
+            c = self.closest
+            lines += [f"## Closest: {c.label}", "", f"max error {pct(c.error)}: {c.reason}", ""]
+            lines += _param_lines(c)
+            lines.append("")
+        if self.shaders:
+            lines += [
+                "## The winner as GLSL",
+                "",
+                "```glsl",
+                self.shaders["glsl"].rstrip(),
+                "```",
+                "",
+            ]
+        if self.directional_fits:
+            lines += [
+                "## Spot falloff fits",
+                "",
+                "| light | variant | umbra (deg) | penumbra (deg) | falloff error | shader cost |",
+                "|---|---|---|---|---|---|",
+            ]
+            for f in self.directional_fits:
+                lines.append(
+                    f"| {f['light']} | {f['variant']} | {f['umbra']:.3f} | {f['penumbra']:.3f} "
+                    f"| {pct(f['error'])} | {f['shader_cost']:g} |"
+                )
+            lines.append("")
+        lines += [
+            "## Every family",
+            "",
+            "| family | status | max error | shader cost | ns/eval | why |",
+            "|---|---|---|---|---|---|",
+        ]
+        for c in self.candidates:
+            ns = f"{c.ns_per_eval:.3g}" if c.ns_per_eval is not None else "-"
+            cost = f"{c.shader_cost:g}" if c.shader_cost is not None else "-"
+            lines.append(
+                f"| {c.label} | {c.status} | {pct(c.error)} | {cost} | {ns} | {c.reason} |"
+            )
+        lines.append("")
+        return "\n".join(lines)
+
+    def plot_errors(self, ax=None, *, others: int = 3):
+        """Judged error against distance for the winner, runner-up and `others` more; `(fig, ax)`."""
+        return plot_scene_errors(self, ax=ax, others=others)
+
+    def save(self, out: str | os.PathLike, *, force: bool = False) -> Path:
+        """Write recommendation.md/.json, the winner's shaders and errors.png into folder `out`.
+
+        Atomic: the folder appears complete or not at all; an existing non-empty folder is
+        replaced only with `force`.
+        """
+        out = Path(out)
+        with atomic_dir(out, force=force) as tmp:
+            (tmp / "recommendation.md").write_text(self.to_markdown(), encoding="utf-8")
+            (tmp / "recommendation.json").write_text(
+                json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
+            )
+            if self.winner is not None:
+                stem = _ident(self.winner.family)
+                for lang, text in self.shaders.items():
+                    (tmp / f"{stem}.{lang}").write_text(text, encoding="utf-8")
+            fig, _ = self.plot_errors()
+            fig.savefig(tmp / "errors.png", dpi=110)
+            import matplotlib.pyplot as plt
+
+            plt.close(fig)
+        return out
+
+
+def _ident(name: str) -> str:
+    return f"attenfit_{name}"
+
+
+def _param_lines(c: Candidate) -> list[str]:
+    out = []
+    for i, p in enumerate(c.params):
+        vals = ", ".join(f"{k} = {_fmt(v)}" for k, v in p.items()) or "no parameters"
+        spot = ""
+        if c.directional_params and i < len(c.directional_params) and c.directional_params[i]:
+            dp = c.directional_params[i]
+            spot = f"; spot umbra = {dp['umbra']:.4g} deg, penumbra = {dp['penumbra']:.4g} deg"
+        out.append(f"- light {i}: {vals}{spot}")
+    return out
+
+
+def _fmt(v: Any) -> str:
+    if isinstance(v, list):
+        return "[" + ", ".join(f"{x:.6g}" for x in v) + "]"
+    return f"{v:.6g}"
+
+
+def pct(x: float | None) -> str:
+    if x is None:
+        return "-"
+    if not math.isfinite(x):
+        return str(x)
+    return f"{100 * x:.3g}%"
+
+
+# ----------------------------------------------------------------------------- figure
+def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
+    """Judged error against d/r for the winner, runner-up and `others` more candidates.
+
+    Every judged receiver of every light is a point; the tolerance is a dashed line.
+    Returns `(fig, ax)`; never calls `show()`.
+    """
+    import matplotlib.pyplot as plt
+
+    picks: list[Candidate] = []
+    for c in (rec.winner, rec.runner_up, rec.closest):
+        if c is not None and c not in picks and c.family in rec.curves:
+            picks.append(c)
+    for c in rec.candidates:
+        if len(picks) >= 2 + others + (rec.winner is None):
+            break
+        if (
+            c not in picks
+            and c.family in rec.curves
+            and c.error is not None
+            and math.isfinite(c.error)
+        ):
+            picks.append(c)
+    with matplotlib.rc_context({"font.size": 9, "axes.grid": True, "grid.alpha": 0.3}):
+        if ax is None:
+            fig, ax = plt.subplots(figsize=(7, 4.2))
+        else:
+            fig = ax.figure
+        markers = "os^vDP*X"
+        floor = rec.tolerance * 1e-4  # smaller errors (exact to rounding) are drawn here
+        for k, c in enumerate(picks):
+            x, e = rec.curves[c.family]
+            order = np.argsort(x)
+            e = np.maximum(e[order], floor)
+            role = (
+                "winner"
+                if c is rec.winner
+                else "runner-up"
+                if c is rec.runner_up
+                else "closest"
+                if c is rec.closest
+                else c.status
+            )
+            ax.plot(
+                x[order], e, markers[k % len(markers)], ms=3, alpha=0.7,
+                label=f"{c.label} ({role}, max {pct(c.error)})",
+            )  # fmt: skip
+        ax.axhline(rec.tolerance, color="k", ls="--", lw=1, label=f"tolerance {pct(rec.tolerance)}")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("d / r (distance from the light's centre over its radius)")
+        ax.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
+        ax.set_title(f"{rec.scene.name or rec.scene.source}: error at the scene's receivers")
+        ax.legend(fontsize=7, loc="best")
+        fig.tight_layout()
+    return fig, ax

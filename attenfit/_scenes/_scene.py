@@ -1,0 +1,78 @@
+"""`Scene`: a validated scene file (lights, receivers, tolerance, constraints) and its truth."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from collections.abc import Mapping
+from typing import Any
+
+from ._toml import parse_scene, read_toml
+from ._truth import light_truth
+from ._types import (
+    LightTruth,
+    Receivers,
+    SceneLight,
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    """A validated scene: lights, receivers, tolerance and constraints (immutable).
+
+    Build it with `Scene.load(path)` or `Scene.from_dict(d, source=...)`; every user
+    error raises an `AttenfitError` naming the file, the table and the key.
+    """
+
+    lights: tuple[SceneLight, ...]
+    receivers: tuple[Receivers, ...]
+    tolerance: float
+    error_floor: float = 0.0
+    reach_zero_at_range: bool = False
+    float32: bool = False
+    families: tuple[str, ...] | None = None
+    name: str = ""
+    description: str = ""
+    seed: int = 0
+    source: str = "<scene>"
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def load(cls, path: str | os.PathLike) -> Scene:
+        """Read and validate a TOML scene file."""
+        data, label = read_toml(path)
+        return cls.from_dict(data, source=label)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], *, source: str = "<scene>") -> Scene:
+        """Validate a scene given as a dict (the parsed TOML); `source` labels errors."""
+        return cls(**parse_scene(d, source))
+
+    def to_dict(self) -> dict[str, Any]:
+        """The scene as a dict `from_dict` accepts (and TOML can hold)."""
+        out: dict[str, Any] = {"tolerance": self.tolerance, "error_floor": self.error_floor}
+        if self.name:
+            out["name"] = self.name
+        if self.description:
+            out["description"] = self.description
+        out["seed"] = self.seed
+        cons: dict[str, Any] = {
+            "reach_zero_at_range": self.reach_zero_at_range,
+            "float32": self.float32,
+        }
+        if self.families is not None:
+            cons["families"] = list(self.families)
+        out["constraints"] = cons
+        out["lights"] = [light.to_dict() for light in self.lights]
+        out["receivers"] = [r.to_dict() for r in self.receivers]
+        return out
+
+    # ------------------------------------------------------------------ ground truth
+    def ground_truth(self) -> tuple[LightTruth, ...]:
+        """Exact irradiance of each light at the scene's receivers, and nothing else.
+
+        One `LightTruth` per light, in order. Plane and point receivers are the same for
+        every light (world positions); a distribution is drawn around each light
+        (deterministic in `seed` and the light's index).
+        """
+        return tuple(light_truth(self, i) for i in range(len(self.lights)))

@@ -1,0 +1,18 @@
+"""Stage 2, the ground truth: Lambertian emitters, their exact irradiance, an independent
+quadrature, and datasets of receivers with their irradiance.
+
+Imports nothing from the other stages.
+"""
+
+from ._dataset import FORMAT as FORMAT
+from ._dataset import FORMAT_VERSION as FORMAT_VERSION
+from ._dataset import Dataset as Dataset
+from ._dataset import facing_sweep as facing_sweep
+from ._dataset import plane_receivers as plane_receivers
+from ._dataset import random_receivers as random_receivers
+from ._emitters import AbstractEmitter as AbstractEmitter
+from ._emitters import CapsuleEmitter as CapsuleEmitter
+from ._emitters import DiskEmitter as DiskEmitter
+from ._emitters import SphereEmitter as SphereEmitter
+from ._emitters import emitter_from_dict as emitter_from_dict
+from ._irradiance import irradiance as irradiance
