@@ -1,10 +1,10 @@
-# The two entry points of the README: `make report` (the main job) and `make test`.
-# Both create .venv when it is missing and install the project into it.
+# The two entry points of the README: `make report` (the main job) and `make test`; every
+# target creates .venv when it is missing and installs the project into it.
 VENV ?= .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.attenfit-installed
 
-.PHONY: report test lint format bench clean
+.PHONY: report test lint format bench docs clean
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || python3 -m venv $(VENV)
@@ -29,6 +29,10 @@ format: $(STAMP)
 
 bench: $(STAMP)
 	$(PY) -m benchmarks
+
+# Every generated table and figure of README.md and docs/ (docs/generate.py).
+docs: $(STAMP)
+	$(PY) docs/generate.py
 
 clean:
 	rm -rf $(VENV) attenfit-report .pytest_cache .hypothesis

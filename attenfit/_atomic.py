@@ -74,16 +74,12 @@ def check_output_path(
             if not path.is_dir():
                 raise BadValueError(f"output {str(path)!r} exists and is a file, not a folder")
             if any(path.iterdir()) and not force:
-                raise OutputExistsError(
-                    f"output folder {str(path)!r} exists and is not empty; use force=True (--force) to replace it"
-                )
+                raise OutputExistsError(f"output folder {str(path)!r} exists and is not empty")
         else:
             if path.is_dir():
                 raise BadValueError(f"output {str(path)!r} is a folder, not a file")
             if not force:
-                raise OutputExistsError(
-                    f"output file {str(path)!r} exists; use force=True (--force) to overwrite it"
-                )
+                raise OutputExistsError(f"output file {str(path)!r} exists", "overwrite it")
     return path
 
 

@@ -37,7 +37,19 @@ class UnknownNameError(AttenfitError, KeyError):
 
 
 class OutputExistsError(BadValueError):
-    """An output exists already and overwriting it was not asked for (`force=True`)."""
+    """An output exists already and overwriting it was not asked for (`force=True`).
+
+    `what` says what exists, `action` what forcing would do ("overwrite it"); the message
+    names the API's remedy (`force=True`), `cli_message()` the command line's (`--force`).
+    """
+
+    def __init__(self, what: str, action: str = "replace it"):
+        self.what, self.action = what, action
+        super().__init__(f"{what}; pass force=True to {action}")
+
+    def cli_message(self) -> str:
+        """The message with the command line's remedy."""
+        return f"{self.what}; use --force to {self.action}"
 
 
 class DataFileError(BadValueError):

@@ -13,7 +13,7 @@ from collections.abc import Sequence
 
 from ._cli import _export, _families, _fit, _report, _scene, _truth
 from ._cli._common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_NOT_CONVERGED, EXIT_OK
-from ._errors import AttenfitError
+from ._errors import AttenfitError, OutputExistsError
 from ._version import __version__
 
 __all__ = [
@@ -110,6 +110,9 @@ def _main(argv: Sequence[str] | None) -> int:
         return int(args.run(args))
     except _UsageError as exc:
         print(str(exc).replace("\n", " "), file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except OutputExistsError as exc:
+        print(f"attenfit: error: {exc.cli_message()}".replace("\n", " "), file=sys.stderr)
         return EXIT_BAD_INPUT
     except AttenfitError as exc:
         print(f"attenfit: error: {exc}".replace("\n", " "), file=sys.stderr)

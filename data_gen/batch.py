@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from attenfit import BadValueError, DataFileError, Dataset
+from attenfit import BadValueError, Dataset, OutputExistsError
 from attenfit._atomic import atomic_write, check_output_path
 
 from .estimate import Estimate, estimate_detail
@@ -87,7 +87,7 @@ def render_batch(
 
     Resumes from the chunks in `parts_dir(out)` that match this run. A chunk folder holding
     chunks of a different run (other receivers, spp, seed, variant) is refused with
-    `DataFileError` unless `force`, which discards them. `out` must not exist unless
+    `OutputExistsError` unless `force`, which discards them. `out` must not exist unless
     `force`. `progress(done, total)` counts receivers, finished chunks included.
     """
     out = check_output_path(out, force=force)
@@ -117,9 +117,10 @@ def render_batch(
         results.append(got)
     if stale:
         if not force:
-            raise DataFileError(
+            raise OutputExistsError(
                 f"{str(folder)!r} holds chunks of a different run (receivers, spp, seed or "
-                "variant differ); delete the folder or use force=True (--force) to discard them"
+                "variant differ)",
+                "discard them (or delete the folder)",
             )
         for path in stale:
             path.unlink()

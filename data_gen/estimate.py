@@ -1,7 +1,7 @@
 """Irradiance at receivers by Monte Carlo with Mitsuba 3's own light sampling and ray tracing.
 
 For a receiver at p with unit normal n, E(p, n) = int L(omega) max(0, n . omega) d omega
-(groundtruth.md section 1). Each of the `spp` samples combines two directions by multiple
+(docs/architecture.md, Conventions). Each of the `spp` samples combines two directions by multiple
 importance sampling with the balance heuristic (Veach 1997, ch. 9; the same pairing as
 Mitsuba's `direct` and `path` integrators, `src/integrators/direct.cpp`):
 

@@ -102,6 +102,7 @@ def mitsuba_provenance(
         "seed": int(seed),
         "mitsuba_version": mitsuba_version(),
         "llvm_library": choice.llvm_path,
+        "variant_reason": choice.reason,
         "estimator": (
             "mean over spp of weight * max(0, n.omega) from Scene.sample_emitter_direction"
             "(test_visibility=True); uniforms from numpy SeedSequence([seed, receiver, component])"

@@ -5,7 +5,7 @@ holding numbers only; `scene_components` turns a list of them, plus an optional 
 `Plane`, into the plain dictionaries that `mitsuba.load_dict` accepts. Each light is made of
 Mitsuba `sphere`, `disk` or `cylinder` shapes carrying an `area` emitter of uniform radiance
 L (Lambertian), with L the radiance that the point-equivalent intensity implies,
-L = I / (pi r^2) (groundtruth.md section 1).
+L = I / (pi r^2) (docs/architecture.md, Conventions).
 
 The irradiance of a set of lights is the sum over *components* (`scene_components`): scenes
 holding the same shapes but differing in which of them emit. Two reasons:

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 from attenfit import AttenfitError, BadValueError
 
 __all__ = [
+    "FALLBACK_NOTICE",
     "LLVM_ENV",
     "VARIANTS",
     "MitsubaMissingError",
@@ -42,6 +43,11 @@ VARIANTS = ("auto", "scalar_rgb", "llvm_ad_rgb")
 LLVM_ENV = "DRJIT_LIBLLVM_PATH"
 _PROBE_TIMEOUT_S = 120.0
 _MIN_LLVM_MAJOR = 16  # 15 aborts (see module docstring); 19 is known to work
+#: The one line printed (after "data_gen: ") when no libLLVM works for Mitsuba's fast variant.
+FALLBACK_NOTICE = (
+    "Mitsuba's fast llvm_ad_rgb variant does not work on this machine (it needs libLLVM 16 or "
+    "newer, e.g. apt-get install libllvm19), so it renders with scalar_rgb, which is slower."
+)
 
 
 class MitsubaMissingError(AttenfitError):
@@ -229,8 +235,9 @@ def select_variant(requested: str = "auto") -> VariantChoice:
 
     'scalar_rgb' is always honoured. 'auto' and 'llvm_ad_rgb' use `llvm_ad_rgb` when a
     libLLVM passes `probe_llvm`, and otherwise fall back to `scalar_rgb` with a one-line
-    notice on stderr ("data_gen: llvm_ad_rgb unavailable (...); using scalar_rgb"). Never
-    raises for an unusable LLVM; raises `BadValueError` for an unknown name.
+    notice on stderr (`FALLBACK_NOTICE`; why the probe failed is in the choice's `reason`,
+    which goes into the dataset's provenance). Never raises for an unusable LLVM; raises
+    `BadValueError` for an unknown name.
     """
     global _chosen
     if requested not in VARIANTS:
@@ -241,7 +248,7 @@ def select_variant(requested: str = "auto") -> VariantChoice:
         return _chosen
     choice, why = _choose_llvm()
     if choice is None:
-        _notice(f"llvm_ad_rgb unavailable ({why[:300]}); using scalar_rgb")
+        _notice(FALLBACK_NOTICE)
         choice = VariantChoice("scalar_rgb", None, f"fallback: {why}")
     _chosen = choice
     return choice

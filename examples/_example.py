@@ -4,7 +4,8 @@ Each script in `examples/` runs as `python examples/NAME.py [--out DIR] [--force
 its figures in a temporary folder and moves the folder into place only when everything
 succeeded (`attenfit._atomic.atomic_dir`), so an interrupted run never leaves a half-written
 output. Besides the PNGs it writes `numbers.json`: the values the script printed and checked,
-which `tests/test_examples.py` asserts on. An existing non-empty output folder is kept
+which `tests/test_examples.py` asserts on. A script owns the folders it wrote (a marker file,
+`OWNER`, names it) and replaces them when run again; any other non-empty folder is kept
 unless `--force` is given.
 """
 
@@ -25,6 +26,8 @@ from attenfit._atomic import atomic_dir, check_output_path
 from attenfit._fit import enable_persistent_cache
 
 EXAMPLES = Path(__file__).resolve().parent
+#: The marker file naming the script that wrote an output folder.
+OWNER = ".written-by"
 
 
 def parser(name: str, description: str) -> argparse.ArgumentParser:
@@ -41,16 +44,26 @@ def parser(name: str, description: str) -> argparse.ArgumentParser:
 
 
 def parse_args(p: argparse.ArgumentParser, argv: Sequence[str] | None) -> argparse.Namespace:
-    """Parse `argv` and refuse a taken output folder before any work starts."""
+    """Parse `argv` and refuse a taken output folder before any work starts.
+
+    A folder this script wrote before (its `OWNER` marker names `p.prog`) is not taken: the
+    script replaces it, as re-running it is meant to.
+    """
     args = p.parse_args(argv)
+    args.owner = p.prog
+    marker = Path(args.out) / OWNER
+    if marker.is_file() and marker.read_text(encoding="utf-8").strip() == args.owner:
+        args.force = True
     check_output_path(args.out, force=args.force, folder=True)
     return args
 
 
 @contextlib.contextmanager
-def output_folder(path: Path, *, force: bool) -> Iterator[Path]:
-    """A temporary folder that becomes `path` when the block succeeds (atomic)."""
-    with atomic_dir(path, force=force) as tmp:
+def output_folder(args: argparse.Namespace) -> Iterator[Path]:
+    """A temporary folder that becomes `args.out` when the block succeeds (atomic), marked as
+    written by this script."""
+    with atomic_dir(args.out, force=args.force) as tmp:
+        (tmp / OWNER).write_text(args.owner + "\n", encoding="utf-8")
         yield tmp
 
 

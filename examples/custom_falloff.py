@@ -169,7 +169,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
     )
 
     numbers = {"fits": fits, "fn_params_fit": fn_fit, "report_max_rel_error": summary}
-    with _example.output_folder(args.out, force=args.force) as tmp:
+    with _example.output_folder(args) as tmp:
         report.write(tmp / "report", svg=False)
         _example.write_numbers(tmp, numbers)
     print(f"wrote {args.out} (report in {args.out / 'report'})")

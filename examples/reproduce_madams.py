@@ -66,7 +66,7 @@ def madams_att(d_s: np.ndarray, r: float) -> np.ndarray:
     """The post's f_att = 1/(d_s/r + 1)^2 (surface distance, 1 at the surface), via the library.
 
     `attenfit.MadamsSphere` is this curve divided by r^2 and taken at the centre distance
-    d_s + r (DESIGN.md section 1), so f_att = r^2 madams_sphere(d_s + r).
+    d_s + r (docs/architecture.md, Conventions), so f_att = r^2 madams_sphere(d_s + r).
     """
     return r * r * np.asarray(attenfit.MadamsSphere(r=r)(jnp.asarray(d_s + r)))
 
@@ -426,7 +426,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
         "four_lights": four,
         "windows": {"d_max": d_max, **grads},
     }
-    with _example.output_folder(args.out, force=args.force) as tmp:
+    with _example.output_folder(args) as tmp:
         _example.save_figure(curve_figure(truth, r), tmp, "madams_curve")
         _example.save_figure(four_lights_figure(img), tmp, "madams_four_lights")
         _example.save_figure(windows_figure(r, d_max, grads), tmp, "madams_windows")

@@ -152,7 +152,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
         "values": {k: v.tolist() for k, v in values.items()},
         "features": feats,
     }
-    with _example.output_folder(args.out, force=args.force) as tmp:
+    with _example.output_folder(args) as tmp:
         _example.save_figure(figure(), tmp, "yuksel_fig3")
         _example.write_numbers(tmp, numbers)
     print(f"wrote {args.out}")

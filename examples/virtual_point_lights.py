@@ -207,7 +207,7 @@ def main(argv: Sequence[str] | None = None) -> dict:
             k: float(np.sum(flat[k]) / np.sum(flat["truth: disks"])) for k in MODELS
         },
     }
-    with _example.output_folder(args.out, force=args.force) as tmp:
+    with _example.output_folder(args) as tmp:
         _example.save_figure(figure(images, profile, x), tmp, "vpl_floor")
         _example.write_numbers(tmp, numbers)
     print(f"wrote {args.out}")

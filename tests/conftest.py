@@ -5,6 +5,7 @@ import os
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import jax
+import pytest
 from hypothesis import HealthCheck, settings
 
 jax.config.update("jax_enable_x64", True)
@@ -27,3 +28,12 @@ settings.register_profile(
 )
 _HUNT = int(os.environ.get("ATTENFIT_FUZZ_SCALE", "1")) > 1
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "hunt" if _HUNT else "default"))
+
+
+def pytest_collection_modifyitems(config, items):
+    """With pytest-xdist (`-n 2 --dist loadgroup`): keep each test module on one worker, so
+    its module-scoped fixtures are built once; the docs' pages are independent of each other
+    and are spread over the workers."""
+    for item in items:
+        if item.module.__name__ != "test_docs":
+            item.add_marker(pytest.mark.xdist_group(item.module.__name__))

@@ -807,7 +807,7 @@ API_CASES = [
         "save-exists",
         lambda f: af.Dataset.load(f.valid).save(f.existing),
         OutputExistsError,
-        "existing.npz' exists; use force=True",
+        "existing.npz' exists; pass force=True to overwrite it",
     ),
     Case(
         "save-under-file",
@@ -1071,7 +1071,7 @@ CLI_CASES: list[tuple[str, list[Any], str]] = [
     (
         "truth-out-exists",
         [*TRUTH, "--out", _p("existing")],
-        "existing.npz' exists; use force=True (--force)",
+        "existing.npz' exists; use --force to overwrite it",
     ),
     (
         "truth-out-under-file",
@@ -1211,7 +1211,7 @@ CLI_CASES: list[tuple[str, list[Any], str]] = [
     (
         "report-out-exists",
         ["report", "--out", _p("full_dir")],
-        "full_dir' exists and is not empty; use force=True (--force)",
+        "full_dir' exists and is not empty; use --force to replace it",
     ),
     (
         "report-out-is-file",

@@ -402,10 +402,7 @@ def test_cli_export_prints_and_writes(tmp_path, capsys):
     assert target.read_text() == ex.export("yuksel", "glsl", uniforms=True)
     assert main(["export", "yuksel", "--out", str(target)]) == 2  # exists, no --force
     err = capsys.readouterr().err
-    assert (
-        f"attenfit: error: output file '{target}' exists; use force=True (--force) to overwrite it"
-        in err
-    )
+    assert f"attenfit: error: output file '{target}' exists; use --force to overwrite it" in err
     assert main(["export", "clamped", "--out", str(target), "--force"]) == 0
     assert "attenfit_clamped" in target.read_text()
 

@@ -114,7 +114,7 @@ def test_yuksel_against_mpmath_eq7_and_groundtruth_table():
         for x in map(mpmath.mpf, d)
     ]
     np.testing.assert_allclose(f64(attenfit.Yuksel(r=r), d), ref, rtol=2e-15)
-    # groundtruth.md section 4, r = 1: Yuksel f(d).
+    # shared/reference/groundtruth.md §4, r = 1: Yuksel f(d).
     table = {
         0: 2.0,
         0.001: 1.998000001,
@@ -498,7 +498,7 @@ def test_registry_errors_and_a_custom_family():
         attenfit.Yuksel().replace(radius=1.0)
 
     class YukselWindowed(attenfit.Family):
-        """The README recipe: Yuksel's base times the Unreal/Frostbite window."""
+        """The docs/families.md recipe: Yuksel's base times the Unreal/Frostbite window."""
 
         r: float = 0.1
         r_max: float = 10.0

@@ -3,7 +3,7 @@
 References: a semi-analytic mpmath integral over the sphere's cone written here; a scipy
 nested quadrature over the disk's surface with the horizon cut written here; Howell's
 catalogue forms (B-12 coaxial, B-14 offset parallel, the perpendicular element) and the
-tables of reference/groundtruth.md; a plain Monte Carlo ray-casting estimate (with its
+tables of shared/reference/groundtruth.md; a plain Monte Carlo ray-casting estimate (with its
 standard error) for the capsule; and the limits (far field, point light, facing disk).
 """
 
@@ -192,7 +192,7 @@ def test_sphere_special_values():
     r = 1.0
     s = af.SphereEmitter([0.0, 0.0, 0.0], r)
     mpmath.mp.dps = 30
-    # theta = pi/2: K = alpha - sin(alpha) cos(alpha) (groundtruth.md section 2)
+    # theta = pi/2: K = alpha - sin(alpha) cos(alpha) (shared/reference/groundtruth.md §2)
     for D in (1.0001, 1.5, 3.0, 100.0, 1e4):
         a = mpmath.asin(mpmath.mpf(r) / D)
         ref = float((a - mpmath.sin(a) * mpmath.cos(a)) / mpmath.pi)
@@ -270,7 +270,7 @@ def test_disk_rotated_translated_scaled_matches_scipy():
         assert E1(af.DiskEmitter(c, m, r, 1.7), p, n) == pytest.approx(ref, rel=1e-9, abs=1e-15)
 
 
-# groundtruth.md section 3.7 table ("E exact", 7 significant digits), L = 1/(pi r^2), r = 1
+# shared/reference/groundtruth.md §3.7 table ("E exact", 7 significant digits), L = 1/(pi r^2), r = 1
 TABLE_COAXIAL = [
     (0.001, 0, 9.999990e-01),
     (0.001, 45, 8.531029e-01),
@@ -333,7 +333,7 @@ def test_disk_howell_closed_forms():
         root = math.sqrt(Z * Z - 4 * R * R)
         F_par = 0.5 * (1 - (Z - 2 * R * R) / root)  # B-14
         assert E1(disk, [s, 0, z], [0, 0, -1.0]) == pytest.approx(2.0 * F_par / r**2, rel=1e-9)
-        if s >= r:  # perpendicular element, unclipped (groundtruth.md 3.4)
+        if s >= r:  # perpendicular element, unclipped (shared/reference/groundtruth.md §3.4)
             F_perp = H / 2 * (Z / root - 1)
             got = E1(disk, [s, 0, z], [-1.0, 0, 0])
             assert got == pytest.approx(2.0 * F_perp / r**2, rel=1e-9)
@@ -341,7 +341,7 @@ def test_disk_howell_closed_forms():
 
 def test_disk_coaxial_equals_cone():
     # On the axis a disk is a uniform cone of half-angle atan(r/h): the same K as a sphere
-    # of sin(alpha) = r / sqrt(r^2 + h^2) (groundtruth.md 3.2), here from the mpmath cone.
+    # of sin(alpha) = r / sqrt(r^2 + h^2) (shared/reference/groundtruth.md §3.2), here from the mpmath cone.
     r = 1.0
     disk = af.DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], r)
     for h, deg in ((0.3, 70.0), (0.3, 100.0), (2.0, 80.0), (2.0, 95.0), (50.0, 90.0), (50.0, 90.5)):

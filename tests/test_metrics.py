@@ -45,7 +45,7 @@ def test_bands_split_at_r_and_10r():
 
 def test_attenuation_errors_yuksel_against_facing_disk():
     # Yuksel eq. 7 over the facing disk is 2 sqrt(d^2+r^2) / (sqrt(d^2+r^2) + d), written
-    # out here by hand (groundtruth.md section 4): 2 at d = 0, 1.171572875 at d = r.
+    # out here by hand (shared/reference/groundtruth.md §4): 2 at d = 0, 1.171572875 at d = r.
     r = 1.0
     d = np.array([0.0, 1.0, 100.0])
     truth = 1.0 / (d**2 + r**2)

@@ -1,6 +1,6 @@
 """The comparison report: its numbers against independent closed forms, its files, its CLI.
 
-Reference values are computed here from the textbook forms (groundtruth.md sections 2-4),
+Reference values are computed here from the textbook forms (shared/reference/groundtruth.md §2-4),
 never from attenfit: the facing disk's attenuation is 1/(d^2 + r^2) (Howell B-12), a sphere
 above the horizon is exactly a point light, Yuksel's eq. 7 is 2/(s (s + d)) with
 s = sqrt(d^2 + r^2) and eq. 8 is 1/(d^2 + r^2/2).
@@ -63,7 +63,7 @@ def test_yuksel_errors_against_the_facing_disk_by_hand(report):
     s = math.sqrt(d * d + R * R)
     assert sw["overall"]["max_abs"] == pytest.approx(2 * s / (s + d) - 1, rel=1e-9)
     assert sw["overall"]["worst_at"] == pytest.approx(d, rel=1e-9)
-    # mid band r..10 r: worst at d = r, 2/(1 + 1/sqrt 2) - 1 = 0.171572875 (groundtruth.md table)
+    # mid band r..10 r: worst at d = r, 2/(1 + 1/sqrt 2) - 1 = 0.171572875 (shared/reference/groundtruth.md §4 table)
     assert sw["bands"]["mid"]["max_abs"] == pytest.approx(0.171572875253810, rel=1e-9)
     # far band: worst at its nearest sample, d = 10^(0.2 k) r just above 10 r
     d_far = R * 10 ** (1.2)
@@ -165,7 +165,7 @@ def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys)
     err = capsys.readouterr().err
     assert err == (
         f"attenfit: error: output folder {str(out)!r} exists and is not empty; "
-        "use force=True (--force) to replace it\n"
+        "use --force to replace it\n"
     )
     assert (out / "report.md").read_text() == before
     assert main(["report", "--out", str(tmp_path / "new"), "--families", "nope", "--no-fit"]) == 2
@@ -217,7 +217,7 @@ def test_plots_return_fig_and_ax():
 def test_datasets_become_configurations(tmp_path, capsys):
     # Exact datasets stand in for Mitsuba ones (same format; generator "attenfit.irradiance").
     # A sphere touching a plane and a facing sweep: every receiver sees the whole sphere above
-    # its horizon, where the sphere is exactly a point light (groundtruth.md section 2.1).
+    # its horizon, where the sphere is exactly a point light (shared/reference/groundtruth.md §2.1).
     from attenfit import SphereEmitter, facing_sweep, plane_receivers
 
     sphere = SphereEmitter(center=(0.0, 0.0, 0.0), radius=R)

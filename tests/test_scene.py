@@ -323,7 +323,7 @@ def test_aperture_profile_against_monte_carlo():
 
 # ----------------------------------------------------------------------------- recommend
 # A few families per example (each family's solve compiles once, then every scene reuses
-# it): enough to tell the kinds of answer apart. The README shows the full runs.
+# it): enough to tell the kinds of answer apart. docs/scenes.md shows the full runs.
 FAMILIES = ("inverse_square", "clamped", "disk_facing")
 
 

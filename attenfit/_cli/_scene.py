@@ -18,7 +18,7 @@ def add_parser(sub) -> None:
         "Exit 0 even when no family meets the tolerance (the output says so); 2 for a bad "
         "scene file.",
     )
-    p.add_argument("file", metavar="FILE", help="a TOML scene file (see README, Scene files)")
+    p.add_argument("file", metavar="FILE", help="a TOML scene file (docs/scenes.md)")
     p.add_argument(
         "--out",
         default=None,

@@ -1,6 +1,6 @@
 """Directional (spotlight and emitter-shape) factors `g` of the point-light model.
 
-A light's irradiance is `E = I * g * f(d) * max(0, n.l)` (DESIGN.md section 1); this module
+A light's irradiance is `E = I * g * f(d) * max(0, n.l)` (docs/architecture.md, Conventions); this module
 gives `g`. Angles are half-angles from the spot axis, in radians: the **umbra** angle
 `theta_u` bounds the cone (g = 0 beyond it) and the **penumbra** angle `theta_p <= theta_u`
 bounds the inner cone of full intensity (RTR4 section 5.2.2, Fig. 5.7). `cos_s` is the cosine
@@ -111,7 +111,7 @@ def lambert_disk(cos_e: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
     """A one-sided Lambertian disk's directional factor, max(0, cos theta_e).
 
     A disk of radius r and radiance L has intensity I cos(theta_e) at the angle theta_e from
-    its normal (DESIGN.md section 1: I = pi r^2 L along the normal); 0 behind it. The gradient
+    its normal (docs/architecture.md, Conventions: I = pi r^2 L along the normal); 0 behind it. The gradient
     at cos_e = 0 is the one from the lit side (1).
     """
     (cos_e,) = parts.promote(cos_e)

@@ -34,7 +34,7 @@ CONSTRAINTS = ("positive", "nonnegative", "unit", "real")
 class Family(eqx.Module):
     """A differentiable, parameterised attenuation curve `f(d)`, in 1/length^2.
 
-    `d` is the distance from the light's centre (DESIGN.md section 1). A point light of
+    `d` is the distance from the light's centre (docs/architecture.md, Conventions). A point light of
     intensity `I` gives irradiance `E = I * g * f(d) * max(0, n.l)`. A family's fields are
     its parameters (scalars, or arrays with a leading batch axis for `fit_many`); calling
     it broadcasts over `d` and returns the dtype of `d` when `d` is a float array (else the

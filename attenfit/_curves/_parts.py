@@ -1,7 +1,7 @@
 """Composable parts of attenuation curves: base falloffs, range windows and distance warps.
 
 Every named family in `attenfit.families` is a product of these pure functions, so a user
-can build a combination nobody published (see "Write your own family" in the README)::
+can build a combination nobody published (see "Write and register your own family" in docs/families.md)::
 
     f(d) = base(warp(d)) * window(d)
 

@@ -158,7 +158,7 @@ class DiskFacing(Family):
 
     Irradiance on the axis of a Lambertian disk of radius r (m) and radiance 1/(pi r^2)
     (unit intensity), at distance d, receiver facing it: E = pi L sin^2(sigma) = 1/(d^2 + r^2)
-    (Howell's catalogue B-12; groundtruth.md section 4). The Madams thread remarks that his
+    (Howell's catalogue B-12; docs/ground-truth.md §4). The Madams thread remarks that his
     curve is really a disc light's. f(0) = 1/r^2.
     """
 

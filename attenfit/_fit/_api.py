@@ -5,7 +5,7 @@ pair to attenuation samples `target` at distances `d`; `fit_dataset` fits the po
 model `E = I g f(d) max(0, n.l)` to a dataset's irradiance; `fit_many` solves thousands of
 independent problems in one jitted, vmapped solve.
 
-How (DESIGN.md section 4):
+How (docs/fitting.md):
 - The solver moves unconstrained coordinates (`_reparam`): `exp` for positive
   parameters, a reflection for nonnegative ones (so an optimum on 0 is reached exactly),
   a sigmoid for unit ones. After the solve, a nonnegative parameter whose value 0 fits as

@@ -103,7 +103,7 @@ def build_report(
     fitted: bool = True,
     sweep_n: int = SWEEP_N,
     plane_px: int = PLANE_PX,
-    cost: bool = True,
+    cost: bool | str = True,
     progress: Callable[[str], None] | None = None,
 ) -> Report:
     """Compare `families` (default: every registered one) against `emitters` and `datasets`.
@@ -116,7 +116,8 @@ def build_report(
             each adds a configuration (see the module docstring).
         fitted: also fit every family (the "fitted" mode); False gives "published" only.
         sweep_n, plane_px: samples per sweep and pixels per plane side.
-        cost: measure the cost per evaluation of each family.
+        cost: each family's cost: True, operation counts and measured time per evaluation;
+            "counts", the operation counts only (deterministic, faster); False, none.
         progress: called with one line per stage (the CLI prints it on stderr).
     """
     import jax
@@ -202,12 +203,15 @@ def build_report(
         findings = seed_findings(classes, configs, results, models)
     prerendered = painter.result() if painter is not None else {}  # joined before timing costs
     costs: dict[str, Any] = {}
+    if cost not in (True, False, "counts"):
+        raise BadValueError(f"cost must be True, False or 'counts', got {cost!r}")
     if cost:
         t = time.perf_counter()
         say(f"cost: {len(classes)} families")
         costs = family_costs(
             [c.name for c in classes],
             {cls.name: models[(cls.name, configs[0].name, "published")] for cls in classes},
+            measure=cost is True,
         )
         timings["cost"] = time.perf_counter() - t
 

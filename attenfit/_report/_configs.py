@@ -1,9 +1,9 @@
-"""Configurations (DESIGN.md section 5, generalising Yuksel 2020's Figure 3 and Madams 2011's
+"""Configurations (docs/report.md, generalising Yuksel 2020's Figure 3 and Madams 2011's
 renders), for an emitter of radius r and unit intensity:
 
 * **sweep**: receivers facing the light's centre, `SWEEP_N` distances log-spaced from
   contact (sphere) or 1e-3 r (disk) to 1000 r; the truth is the exact attenuation
-  E_true / (I g n.l) there (DESIGN.md section 1);
+  E_true / (I g n.l) there (docs/architecture.md, Conventions);
 * **plane**: a receiving plane under the light (the sphere touching it, the disk at r/4 above
   it), rendered on a grid for the images and integrated along a ray for its energy;
 * **datasets** (e.g. Mitsuba renders, `--mitsuba FILE.npz`): a dataset whose provenance has a

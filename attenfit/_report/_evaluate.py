@@ -122,12 +122,14 @@ def _ns_per_eval(model: Any, n: int = 1 << 16, repeats: int = 7) -> float:
     return float(np.median(times) / n * 1e9)
 
 
-def family_costs(names: Sequence[str], instances: Mapping[str, Any]) -> dict[str, Any]:
-    """Cost of each family: `attenfit.cost.cost_table` (measured ns/eval, its ratio to
-    inverse-square in the same run, operation counts and shader cost); the stand-in
-    `_ns_per_eval` if that fails."""
+def family_costs(
+    names: Sequence[str], instances: Mapping[str, Any], *, measure: bool = True
+) -> dict[str, Any]:
+    """Cost of each family: `attenfit.cost.cost_table` (operation counts and shader cost, and
+    unless `measure` is False the measured ns/eval and its ratio to inverse-square in the same
+    run); the stand-in `_ns_per_eval` if that fails."""
     try:
-        table = cost_table([instances[n] for n in names], measure=True, n=1 << 16, repeats=5)
+        table = cost_table([instances[n] for n in names], measure=measure, n=1 << 16, repeats=5)
         return {
             n: {
                 "ns_per_eval": table[n].ns_per_eval,
@@ -135,8 +137,13 @@ def family_costs(names: Sequence[str], instances: Mapping[str, Any]) -> dict[str
                 "ratio_to_inverse_square": table[n].ratio_to_inverse_square,
                 "shader_cost": table[n].shader_cost,
                 "ops": dict(table[n].ops),
-                "method": "attenfit.cost.cost_table: float32, jitted, 65536 distances, median of 5 "
-                "interleaved repeats; shader cost in full-rate ALU instructions",
+                "method": (
+                    "attenfit.cost.cost_table: float32, jitted, 65536 distances, median of 5 "
+                    "interleaved repeats; shader cost in full-rate ALU instructions"
+                    if measure
+                    else "attenfit.cost.cost_table: shader cost in full-rate ALU instructions "
+                    "(operation counts of the traced expression; not timed)"
+                ),
             }
             for n in names
         }

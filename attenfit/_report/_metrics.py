@@ -1,8 +1,8 @@
 """Error metrics of an attenuation curve against the truth: pure functions over arrays.
 
 Every function takes plain arrays (NumPy, JAX or lists), computes in float64 NumPy on the
-host and returns plain Python numbers in dicts, ready for JSON. Conventions (DESIGN.md
-sections 1 and 5):
+host and returns plain Python numbers in dicts, ready for JSON. Conventions (docs/architecture.md
+and docs/report.md):
 
 * `d` is the distance from the light's centre; `r` the light's radius. The distance bands are
   near (d < r), mid (r <= d <= 10 r) and far (d > 10 r): `BANDS`, in units of r.

@@ -3,7 +3,7 @@
 Every function takes an optional `ax=` (or `fig=` for the multi-panel ones), returns
 `(fig, ax)` (`ax` an array of axes for a multi-panel figure), styles itself through a local
 `matplotlib.rc_context` and never calls `show()`. Distances are in metres and attenuation in
-1/m^2 (DESIGN.md section 1: a unit-intensity light). They use only NumPy and Matplotlib, so
+1/m^2 (docs/architecture.md, Conventions: a unit-intensity light). They use only NumPy and Matplotlib, so
 they work on any backend, including Agg.
 """
 

@@ -420,7 +420,7 @@ def cheapest_within(
 
 
 def _format_table(costs: Mapping[str, Cost], columns: Sequence[str] = CATEGORIES) -> str:
-    """A plain-text table of `costs` (used by the benchmark and the README)."""
+    """A plain-text table of `costs` (used by the benchmark)."""
     head = ["family", "ns/eval", "x inv-sq", "shader", *columns]
     rows = [head]
     for name, c in costs.items():

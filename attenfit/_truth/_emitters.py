@@ -1,7 +1,7 @@
 """Lambertian area emitters: sphere, one- or two-sided disk, and capsule.
 
 Every emitter has uniform radiance `L` over its surface and a point-equivalent intensity
-`I` (default 1), related by Yuksel's normalisation `L = I / (pi r^2)` (DESIGN.md section 1;
+`I` (default 1), related by Yuksel's normalisation `L = I / (pi r^2)` (docs/architecture.md, Conventions;
 Yuksel 2020, "Point Light Attenuation Without Singularity"): the sphere radiates `I` in
 every direction, the disk `I` along its normal (`I cos(theta_e)` off it).
 
@@ -160,7 +160,7 @@ def _bcast(x: Array, like: Array) -> Array:
 
 # ----------------------------------------------------------------------------- emitters
 class AbstractEmitter(eqx.Module):
-    """A Lambertian emitter of uniform radiance `L = I / (pi r^2)` (DESIGN.md section 1)."""
+    """A Lambertian emitter of uniform radiance `L = I / (pi r^2)` (docs/architecture.md, Conventions)."""
 
     #: Name used in files and on the command line.
     kind: ClassVar[str]

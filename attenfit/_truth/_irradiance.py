@@ -9,12 +9,12 @@ below the receiver's tangent plane contributes nothing):
 * Sphere: closed form. A sphere seen from `p` is a uniform cone of half-angle
   `alpha = asin(r / D)`; unclipped `E = I cos(theta) / D^2` exactly (a point light), clipped
   Snyder's (1996) sub-hemispherical form, in the stable atan2 form of
-  `reference/groundtruth.md` section 2 (equal to Frostbite 2014 section 4.7.2.4
+  docs/ground-truth.md §2 (equal to Frostbite 2014 section 4.7.2.4
   `illuminanceSphereOrDisk` and Howell's catalogue B-43).
 * Disk: closed forms. Unclipped, the vector-irradiance form (Gershun's light vector; it
   reduces to Howell B-12, B-14 and the perpendicular-element case); clipped, the
   Stokes/Sparrow (1963) contour integral over the visible circular segment: rim arc plus
-  chord (groundtruth.md sections 3.5 and 3.6).
+  chord (docs/ground-truth.md §3.5 and 3.6).
 * Capsule: a one-dimensional Gauss-Legendre quadrature over the pencil of planes that
   contain the receiver and are parallel to the capsule's axis, with the integral inside
   each plane (over the 2D stadium the plane cuts) done in closed form, clipping included.
@@ -108,7 +108,7 @@ def _one_minus_atan_ratio(u: Array) -> Array:
 def _cone_clipped_K(cos_t: Array, sin_a: Array, cos_a: Array) -> Array:
     """K(cos theta, sin alpha) of a uniform cone partly below the horizon, E = L K.
 
-    Stable form of groundtruth.md section 2:
+    Stable form of docs/ground-truth.md §2:
     K = sin^2(a) cos(t) atan2(g, -cos(a) cos(t)) - g cos(a) + atan2(g, cos(a)),
     g = sqrt(sin^2 a - cos^2 t). With t = g / cos(a) small, the last two terms are
     rewritten as (atan t - t) + t sin^2 a, and for cos(t) < 0 the first two terms as
@@ -185,7 +185,7 @@ def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) 
     st2 = s2 / (lam * lam)
     st = _safe_sqrt(st2)
 
-    # --- unclipped: vector irradiance (groundtruth.md 3.5), E = I [Q(-n.m) + 2 z n.dperp] / (S (S + a))
+    # --- unclipped: vector irradiance (docs/ground-truth.md §3.5), E = I [Q(-n.m) + 2 z n.dperp] / (S (S + a))
     A1 = zt * zt + (st - rt) ** 2
     A2 = zt * zt + (st + rt) ** 2
     S = jnp.sqrt(A1) * jnp.sqrt(A2)
@@ -196,7 +196,7 @@ def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) 
     E_un = (I / lam) / lam * (Q * (-nm) + 2 * zt * ndperp) / (S * (S + 1))
     E_un = jnp.maximum(E_un, 0.0)  # rounding below 0 when the disk lies in the horizon plane
 
-    # --- clipped: arc + chord contour (groundtruth.md 3.6), E = -(L/2) (J_arc + J_chord)
+    # --- clipped: arc + chord contour (docs/ground-truth.md §3.6), E = -(L/2) (J_arc + J_chord)
     u, v = _frame(m)
     dtl = jnp.where(behind, -m, dv / lam)  # scaled receiver -> centre (safe when behind)
     nu, nv = _dot(n, u), _dot(n, v)
@@ -443,9 +443,9 @@ def irradiance(
     plane). Receivers on or inside a sphere or capsule give NaN.
 
     Sources: sphere, Snyder (1996) / Howell catalogue B-43 / Frostbite 2014 section 4.7.2.4
-    in the stable form of groundtruth.md section 2; disk, Howell B-12/B-14 and the vector
+    in the stable form of docs/ground-truth.md §2; disk, Howell B-12/B-14 and the vector
     irradiance (unclipped) and the Stokes/Sparrow (1963) contour form (clipped),
-    groundtruth.md sections 3.5-3.6; capsule, a closed-form inner integral and a
+    docs/ground-truth.md §3.5-3.6; capsule, a closed-form inner integral and a
     `CAPSULE_NODES` Gauss-Legendre nodes per panel (5 panels) outer integral (error <= ~1.4e-6
     of the facing value 1/d^2 over random receivers, mostly far smaller).
     The result has the dtype of `points` (float32 or float64). Compiled with
