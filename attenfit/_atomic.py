@@ -35,7 +35,8 @@ class Interrupted(KeyboardInterrupt):
 PENDING: list[int] = []
 
 
-def _check_pending() -> None:
+def check_pending() -> None:
+    """Raise `Interrupted` if a SIGINT or SIGTERM arrived (see `PENDING`)."""
     if PENDING:
         raise Interrupted(PENDING[0])
 
@@ -111,7 +112,7 @@ def atomic_write(
             tmp_path.write_bytes(data)
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
-        _check_pending()
+        check_pending()
         if path.exists() and not force:  # appeared while we were writing
             raise OutputExistsError(
                 f"output file {str(path)!r} appeared while writing; not overwritten"
@@ -167,7 +168,7 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")
             shutil.rmtree(old, ignore_errors=True)
-        _check_pending()
+        check_pending()
         with _signals_deferred():  # Ctrl-C between the two renames would hide the old folder
             if old is not None:
                 os.replace(path, old)

@@ -11,7 +11,8 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from ._cli import _export, _families, _fit, _report, _scene, _truth
+from . import _progress
+from ._cli import _cache, _export, _families, _fit, _report, _scene, _truth
 from ._cli._common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_NOT_CONVERGED, EXIT_OK
 from ._errors import AttenfitError, OutputExistsError
 from ._version import __version__
@@ -47,8 +48,16 @@ def get_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"attenfit {__version__}")
     sub = parser.add_subparsers(dest="verb", metavar="VERB", parser_class=_Parser)
-    for verb in (_families, _truth, _fit, _report, _scene, _export):
-        verb.add_parser(sub)
+    # what every verb takes: --quiet
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="say nothing on stderr but errors (no progress, no summary line)",
+    )
+    for verb in (_families, _truth, _fit, _report, _scene, _export, _cache):
+        verb.add_parser(sub, [common])
     return parser
 
 
@@ -107,7 +116,8 @@ def _main(argv: Sequence[str] | None) -> int:
         if not getattr(args, "run", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
-        return int(args.run(args))
+        with _progress.active(_progress.Progress(f"attenfit {args.verb}", quiet=args.quiet)):
+            return int(args.run(args))
     except _UsageError as exc:
         print(str(exc).replace("\n", " "), file=sys.stderr)
         return EXIT_BAD_INPUT

@@ -24,6 +24,7 @@ import sys
 from dataclasses import dataclass
 
 from attenfit import AttenfitError, BadValueError
+from attenfit._atomic import _signals_deferred
 
 __all__ = [
     "FALLBACK_NOTICE",
@@ -70,7 +71,10 @@ _probe_cache: dict[str | None, tuple[bool, str]] = {}
 def require_mitsuba():
     """Import and return the `mitsuba` module, or raise `MitsubaMissingError` in one line."""
     try:
-        import mitsuba
+        # A signal in the middle of importing Dr.Jit's extension leaves it half-loaded (a
+        # NameError or an abort later): deliver Ctrl-C and SIGTERM once the import is done.
+        with _signals_deferred():
+            import mitsuba
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise MitsubaMissingError(
             f"Mitsuba 3 is not importable ({exc}); install it with `pip install mitsuba`"
@@ -265,7 +269,8 @@ def use_variant(name: str):
     mi = require_mitsuba()
     if mi.variant() != name:
         try:
-            mi.set_variant(name)
+            with _signals_deferred():  # loads the variant's extension (see require_mitsuba)
+                mi.set_variant(name)
         except (ImportError, AttributeError) as exc:
             raise MitsubaMissingError(f"Mitsuba variant {name} is not available: {exc}") from None
     return mi

@@ -8,6 +8,7 @@ s = sqrt(d^2 + r^2) and eq. 8 is 1/(d^2 + r^2/2).
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -145,7 +146,10 @@ def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys)
     argv += ["--emitters", "disk", "--no-fit", "--sweep-n", "24", "--plane-px", "12"]
     assert main(argv) == 0
     err = capsys.readouterr().err
-    assert "truth: disk" in err and "wrote" in err
+    # stderr is not a terminal here: only the summary line
+    assert (
+        err.count("\n") == 1 and err.startswith("attenfit report: wrote ") and " results, " in err
+    )
     for name in ("report.md", "report.json", "results.csv"):
         assert (out / name).is_file()
     pngs = sorted(p.stem for p in (out / "figures").glob("*.png"))
@@ -214,7 +218,7 @@ def test_plots_return_fig_and_ax():
     assert axes.shape == (1, 2)
 
 
-def test_datasets_become_configurations(tmp_path, capsys):
+def test_datasets_become_configurations(tmp_path, capsys, monkeypatch):
     # Exact datasets stand in for Mitsuba ones (same format; generator "attenfit.irradiance").
     # A sphere touching a plane and a facing sweep: every receiver sees the whole sphere above
     # its horizon, where the sphere is exactly a point light (shared/reference/groundtruth.md §2.1).
@@ -247,8 +251,9 @@ def test_datasets_become_configurations(tmp_path, capsys):
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "inverse_square", "--emitters", "disk"]
     argv += ["--no-fit", "--sweep-n", "24", "--plane-px", "12", "--mitsuba", str(path)]
+    monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # stage lines, as on a terminal
     assert main(argv) == 0
-    assert "dataset: plane" in capsys.readouterr().err
+    assert "] dataset: plane" in capsys.readouterr().err
     assert (out / "figures" / "plane_plane_side_by_side.png").is_file()
     data = json.loads((out / "report.json").read_text())
     assert {c["name"] for c in data["configurations"]} == {"disk", "plane"}

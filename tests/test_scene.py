@@ -417,7 +417,7 @@ n = 200  # the same padded shape (256) as the example scenes: their compiled sol
 def test_cli_scene_writes_files(tmp_path, capsys):
     path = _write(tmp_path, SMALL)
     out = tmp_path / "out"
-    assert main(["scene", str(path), "--out", str(out), "--no-measure"]) == 0
+    assert main(["scene", str(path), "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "recommended: inverse_square" in printed
     names = sorted(p.name for p in out.iterdir())
@@ -433,10 +433,10 @@ def test_cli_scene_writes_files(tmp_path, capsys):
     assert data["winner"]["family"] == "inverse_square"
     assert data["scene"]["lights"][0]["radius"] == 0.1
     # an existing folder is not replaced without --force
-    assert main(["scene", str(path), "--out", str(out), "--no-measure"]) == 2
+    assert main(["scene", str(path), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "exists and is not empty" in err
-    assert main(["scene", str(path), "--out", str(out), "--force", "--no-measure", "--json"]) == 0
+    assert main(["scene", str(path), "--out", str(out), "--force", "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["winner"]["family"] == "inverse_square"
 
 
@@ -457,7 +457,7 @@ def test_cli_no_family_within_tolerance_exits_0(tmp_path, capsys):
         .replace("distance = [0.5, 3.0]", "distance = [0.02, 0.5]")
     )
     path = _write(tmp_path, text)
-    assert main(["scene", str(path), "--no-measure"]) == 0
+    assert main(["scene", str(path)]) == 0
     printed = capsys.readouterr().out
     assert "**no family meets the tolerance 0.1%; closest: " in printed
 

@@ -9,9 +9,10 @@ from .._errors import BadValueError
 from ._common import EXIT_OK
 
 
-def add_parser(sub) -> None:
+def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
         "export",
+        parents=parents,
         help="write a (fitted) family as a GLSL, HLSL, WGSL or C function",
         description="Print (or write with --out) a self-contained shader or C function of a "
         "family, generated from the expression the JAX code evaluates.",

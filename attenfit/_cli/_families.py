@@ -5,21 +5,38 @@ from __future__ import annotations
 import argparse
 import json
 
+from .. import _cache
 from ._common import EXIT_OK
 
 
-def add_parser(sub) -> None:
+def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
-        "families", help="list the attenuation families with formula, parameters and source"
+        "families",
+        parents=parents,
+        help="list the attenuation families with formula, parameters and source",
     )
     p.add_argument("--json", action="store_true", help="machine-readable output")
     p.set_defaults(run=_run_families)
 
 
-def _run_families(args: argparse.Namespace) -> int:
+def _descriptions() -> list[dict]:
+    """Every built-in family's `describe()`, from the cache when this code wrote it (so that
+    listing them does not import JAX), else from the families themselves."""
+    cached = _cache.read("families", "describe")
+    if cached is not None:
+        try:
+            return json.loads(cached)
+        except ValueError:
+            pass
     from .._curves import get_family, list_families
 
     rows = [get_family(name).describe() for name in list_families()]
+    _cache.write("families", "describe", json.dumps(rows).encode())
+    return rows
+
+
+def _run_families(args: argparse.Namespace) -> int:
+    rows = _descriptions()
     if args.json:
         print(json.dumps(rows, indent=2))
         return EXIT_OK

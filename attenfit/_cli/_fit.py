@@ -6,12 +6,15 @@ import argparse
 import json
 import sys
 
+from .. import _progress
 from .._errors import BadValueError
 from ._common import EXIT_NOT_CONVERGED, EXIT_OK
 
 
-def add_parser(sub) -> None:
-    p = sub.add_parser("fit", help="fit families to a dataset or a built-in configuration")
+def add_parser(sub, parents: list) -> None:
+    p = sub.add_parser(
+        "fit", parents=parents, help="fit families to a dataset or a built-in configuration"
+    )
     p.add_argument(
         "--family", required=True, metavar="NAME[,NAME...]", help="families to fit (comma list)"
     )
@@ -83,10 +86,27 @@ def _fit_configuration(args: argparse.Namespace):
     return facing_sweep(emitter, lo, hi, n=args.n), desc
 
 
+def _fit_one(cls, classes, free, source, args):
+    """Fit family `cls` (of the command's `classes`) to `source`, freeing what `--free` names."""
+    from .._fit import fit_dataset
+
+    model = cls()
+    fam_free = free
+    if free is not None:
+        fam_free = tuple(p for p in free if p in cls.param_names())
+        for p in free:
+            if not any(p in c.param_names() for c in classes):
+                cls.constraint(p)  # raises UnknownNameError naming it
+        if not fam_free:
+            fam_free = None
+    options = dict(loss=args.loss, solver=args.solver, free=fam_free)
+    return fit_dataset(model, source, **options)
+
+
 def _run_fit(args: argparse.Namespace) -> int:
     from .._atomic import atomic_dir, check_output_path
     from .._curves import get_family
-    from .._fit import enable_persistent_cache, fit_dataset
+    from .._fit import enable_persistent_cache
 
     names = [n.strip() for n in args.family.split(",") if n.strip()]
     classes = [get_family(n) for n in names]  # unknown names fail here, before any work
@@ -98,21 +118,14 @@ def _run_fit(args: argparse.Namespace) -> int:
     import jax
 
     jax.config.update("jax_enable_x64", True)  # reference fits run in float64
+    _progress.stage("the data")
     source, desc = _fit_configuration(args)
     enable_persistent_cache()
     results = []
-    for cls in classes:
-        model = cls()
-        fam_free = free
-        if free is not None:
-            fam_free = tuple(p for p in free if p in cls.param_names())
-            for p in free:
-                if not any(p in c.param_names() for c in classes):
-                    cls.constraint(p)  # raises UnknownNameError naming it
-            if not fam_free:
-                fam_free = None
-        options = dict(loss=args.loss, solver=args.solver, free=fam_free)
-        results.append(fit_dataset(model, source, **options))
+    with _progress.count(len(classes), f"fitting {len(classes)} families") as bar:
+        for cls in classes:
+            results.append(_fit_one(cls, classes, free, source, args))
+            bar.update()
     rows = [{"configuration": desc, **r.to_dict()} for r in results]
     text = f"# attenfit fit: {desc}\n\n" + "\n\n".join(str(r) for r in results) + "\n"
     if args.out is not None:
@@ -127,4 +140,5 @@ def _run_fit(args: argparse.Namespace) -> int:
     if bad:
         print(f"attenfit fit: {len(bad)} of {len(results)} fits did not converge", file=sys.stderr)
         return EXIT_NOT_CONVERGED
+    _progress.done(f"{len(results)} fits converged" + (f"; wrote {args.out}" if args.out else ""))
     return EXIT_OK

@@ -4,14 +4,15 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 
+from .. import _progress
 from ._common import EXIT_OK
 
 
-def add_parser(sub) -> None:
+def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
         "scene",
+        parents=parents,
         help="fit what a scene file needs and recommend the cheapest family",
         description="Generate ground truth only for the scene's lights and receivers, fit every "
         "family its constraints allow, and recommend the cheapest within its tolerance. "
@@ -28,9 +29,9 @@ def add_parser(sub) -> None:
     p.add_argument("--force", action="store_true", help="replace an existing non-empty DIR")
     p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
     p.add_argument(
-        "--no-measure",
+        "--measure",
         action="store_true",
-        help="rank by operation count and error only (skip timing the families)",
+        help="also time each candidate on this machine (reported beside its shader cost)",
     )
     p.set_defaults(run=_run_scene)
 
@@ -47,12 +48,14 @@ def _run_scene(args: argparse.Namespace) -> int:
 
     jax.config.update("jax_enable_x64", True)  # truth and fits in float64 (float32: a constraint)
     enable_persistent_cache()
-    rec = recommend(scene, measure=not args.no_measure)
+    rec = recommend(scene, measure=args.measure)
     if args.json:
         print(json.dumps(rec.to_dict(), indent=2))
     else:
         print(rec.to_markdown(), end="")
     if args.out is not None:
+        _progress.stage(f"writing {args.out}")
         rec.save(args.out, force=args.force)
-        print(f"attenfit scene: wrote {args.out}", file=sys.stderr)
+    wrote = f"; wrote {args.out}" if args.out is not None else ""
+    _progress.done(f"{rec.summary()}{wrote}")
     return EXIT_OK

@@ -4,21 +4,24 @@ rendered by Mitsuba 3 (`data_gen`)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 
+from .. import _progress
 from .._errors import AttenfitError, BadValueError
 from ._common import EXIT_OK
 
 
-def add_parser(sub) -> None:
+def add_parser(sub, parents: list) -> None:
     """The `truth` and `gen` verbs."""
-    _add_truth(sub)
-    _add_gen(sub)
+    _add_truth(sub, parents)
+    _add_gen(sub, parents)
 
 
-def _add_truth(sub) -> None:
+def _add_truth(sub, parents: list) -> None:
     p = sub.add_parser(
         "truth",
+        parents=parents,
         help="write an exact ground-truth irradiance dataset (.npz)",
         description="Exact irradiance (attenfit.irradiance) from one emitter at the origin at "
         "facing, plane or random receivers, written as an attenfit dataset (.npz). The sphere "
@@ -146,9 +149,10 @@ def _run_truth(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _add_gen(sub) -> None:
+def _add_gen(sub, parents: list) -> None:
     p = sub.add_parser(
         "gen",
+        parents=parents,
         help="render a ground-truth dataset independently with Mitsuba 3",
         description="Render irradiance with Mitsuba 3 (Monte Carlo, a standard error per "
         "receiver) at the receivers `attenfit truth` would use for the same options, and write "
@@ -181,33 +185,17 @@ def _gen_template(args: argparse.Namespace):
     return _configuration_dataset(args, "float64")
 
 
-def _gen_progress(label: str):
-    """A progress callback for stderr: a live bar on a terminal (after the first second),
-    otherwise a line every 10 s (and a last one) once a render has run for 10 s."""
-    import time
+class _RenderBar:
+    """data_gen's `progress(done, total)` as a bar on the command's progress (a terminal)."""
 
-    start = time.perf_counter()
-    tty = sys.stderr.isatty()
-    state = {"last": start, "shown": False}
+    def __init__(self, text: str):
+        self.text, self.done, self.bar, self.stack = text, 0, None, contextlib.ExitStack()
 
-    def progress(done: int, total: int) -> None:
-        now = time.perf_counter()
-        elapsed = now - start
-        finished = done >= total
-        wait = 0.2 if tty else 10.0
-        if (elapsed < (1.0 if tty else 10.0) or now - state["last"] < wait) and not (
-            finished and state["shown"]
-        ):
-            return
-        frac = done / max(total, 1)
-        left = f", {elapsed * (1 - frac) / frac:.0f} s left" if 0 < frac < 1 else ""
-        bar = "#" * int(30 * frac) + "." * (30 - int(30 * frac))
-        line = f"{label} [{bar}] {done}/{total}, {elapsed:.0f} s{left}"
-        end = "\n" if (finished or not tty) else ""
-        print(("\r" if tty else "") + line, end=end, file=sys.stderr, flush=True)
-        state["last"], state["shown"] = now, True
-
-    return progress
+    def __call__(self, done: int, total: int) -> None:
+        if self.bar is None:
+            self.bar = self.stack.enter_context(_progress.count(total, self.text))
+        self.bar.update(done - self.done)
+        self.done = done
 
 
 def _run_gen(args: argparse.Namespace) -> int:
@@ -231,16 +219,21 @@ def _run_gen(args: argparse.Namespace) -> int:
         raise BadValueError(f"--spp must be at least 2, got {args.spp}")
     if args.chunk is not None and args.chunk < 1:
         raise BadValueError(f"--chunk must be a positive integer, got {args.chunk}")
+    _progress.stage("receivers and their exact irradiance")
     template = _gen_template(args)
-    progress = _gen_progress(f"attenfit gen ({len(template)} receivers)")
     start = time.perf_counter()
-    options = dict(spp=args.spp, seed=args.seed, variant=args.variant, progress=progress)
+    bar = _RenderBar(f"rendering {len(template)} receivers with Mitsuba")
+    options = dict(spp=args.spp, seed=args.seed, variant=args.variant, progress=bar)
     if args.chunk is None:
-        data = render_dataset(template, **options)
+        with bar.stack:
+            data = render_dataset(template, **options)
         data.save(args.out, force=args.force)
     else:
         try:
-            data = render_batch(template, args.out, chunk=args.chunk, force=args.force, **options)
+            with bar.stack:
+                data = render_batch(
+                    template, args.out, chunk=args.chunk, force=args.force, **options
+                )
         except KeyboardInterrupt:
             from pathlib import Path
 

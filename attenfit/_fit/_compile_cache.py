@@ -1,9 +1,7 @@
-"""JAX's persistent compilation cache, under ``~/.cache/attenfit/jax`` (the CLI turns it on).
+"""JAX's persistent compilation cache, in attenfit's cache folder (`attenfit._cache`), `jax/`.
 
-A fresh process re-compiles every solve (about 1-3 s each); with the cache on disk a
-second `attenfit fit` run loads the compiled executables instead. The folder is
-``$ATTENFIT_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/attenfit/jax``, else
-``~/.cache/attenfit/jax``. See JAX's "Persistent compilation cache" documentation.
+A fresh process re-compiles every solve (about 1-3 s each); with the cache on disk a later
+process loads the compiled executables instead. See JAX's "Persistent compilation cache".
 """
 
 from __future__ import annotations
@@ -13,6 +11,8 @@ from pathlib import Path
 
 import jax
 
+from .. import _cache
+
 __all__ = ["enable_persistent_cache"]
 
 _ENABLED: list[str] = []
@@ -21,16 +21,13 @@ _ENABLED: list[str] = []
 def enable_persistent_cache(path: str | os.PathLike | None = None) -> Path | None:
     """Turn on JAX's persistent compilation cache (idempotent); return its folder or None.
 
-    Silently does nothing (returns None) when the folder cannot be created: a cache is an
-    optimisation, never a reason to fail.
+    The folder is `path`, else `jax/` in attenfit's cache folder. Silently does nothing
+    (returns None) when it cannot be created: a cache is an optimisation, never a reason to
+    fail.
     """
     if _ENABLED:
         return Path(_ENABLED[0])
-    if path is None:
-        env = os.environ.get("ATTENFIT_CACHE_DIR")
-        base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-        path = env or str(Path(base) / "attenfit" / "jax")
-    folder = Path(path)
+    folder = Path(path) if path is not None else _cache.folder() / "jax"
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError:

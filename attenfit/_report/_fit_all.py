@@ -22,6 +22,9 @@ import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from .._fit import fit_many, to_internal, to_param
@@ -82,6 +85,52 @@ def _on_bound(kind: str, v: np.ndarray) -> bool:
     return False
 
 
+class _Switch:
+    """The `(fn, params)` model of every family at once: `fn(d, {"fam", "u", "c"})` is the
+    family `fam` with free coordinates `u` and fixed values `c` (`jax.lax.switch`)."""
+
+    def __init__(self, classes: list[type], templates: dict, layouts: dict[type, _Layout]):
+        self.classes, self.templates, self.layouts = classes, templates, layouts
+        self.branches = [self._branch(cls) for cls in classes]
+
+    def _branch(self, cls: type):
+        lay, template = self.layouts[cls], self.templates[cls]
+
+        def branch(u, c, d):
+            vals = []
+            for shape, kind, isfree, off in zip(
+                lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
+            ):
+                src = u if isfree else c
+                v = src[off : off + _size(shape)].reshape(shape)
+                vals.append(to_param(kind, v) if isfree else v)
+            m = eqx.tree_at(
+                lambda m: [getattr(m, n) for n in lay.names],
+                template,
+                vals,
+                is_leaf=lambda x: x is None,
+            )
+            return jnp.asarray(m(d), d.dtype)
+
+        return branch
+
+    def __call__(self, d, p):
+        idx = jnp.asarray(p["fam"]).astype(jnp.int32)
+        return jax.lax.switch(idx, self.branches, p["u"], p["c"], d)
+
+    def cache_key(self) -> str | None:
+        """What this model computes (its families, their structure and layout), for the fit
+        stage's cache across processes; None when a family is not attenfit's own."""
+        if not all(cls.__module__.startswith("attenfit.") for cls in self.classes):
+            return None
+        parts = [
+            f"{cls.__module__}.{cls.__qualname__}:{jax.tree_util.tree_structure(self.templates[cls])}"
+            f":{self.layouts[cls]}"
+            for cls in self.classes
+        ]
+        return "report-switch:" + ";".join(parts)
+
+
 def fit_all(
     problems: Sequence[tuple[type, dict[str, Any], np.ndarray, np.ndarray, np.ndarray]],
     *,
@@ -93,10 +142,6 @@ def fit_all(
     None when the fit did not converge) and `info` (converged, message, steps, loss, free).
     Call inside `jax.enable_x64(True)` for a float64 fit.
     """
-    import equinox as eqx
-    import jax
-    import jax.numpy as jnp
-
     classes: list[type] = []
     for cls, *_ in problems:
         if cls not in classes:
@@ -118,33 +163,7 @@ def fit_all(
         ]
     )
 
-    def branch_for(cls):
-        lay, template = layouts[cls], templates[cls]
-
-        def branch(u, c, d):
-            vals = []
-            for shape, kind, isfree, off in zip(
-                lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
-            ):
-                src = u if isfree else c
-                v = src[off : off + _size(shape)].reshape(shape)
-                vals.append(to_param(kind, v) if isfree else v)
-            m = eqx.tree_at(
-                lambda m: [getattr(m, n) for n in lay.names],
-                template,
-                vals,
-                is_leaf=lambda x: x is None,
-            )
-            return jnp.asarray(m(d), d.dtype)
-
-        return branch
-
-    branches = [branch_for(cls) for cls in classes]
-
-    def fn(d, p):
-        idx = jnp.asarray(p["fam"]).astype(jnp.int32)
-        return jax.lax.switch(idx, branches, p["u"], p["c"], d)
-
+    model = _Switch(classes, templates, layouts)
     us, cs, fams = [], [], []
     for cls, start, *_ in problems:
         lay = layouts[cls]
@@ -166,7 +185,7 @@ def fit_all(
     weights = np.stack([p[4] for p in problems])
     params = {"fam": np.asarray(fams), "u": np.stack(us), "c": np.stack(cs)}
     res = fit_many(
-        (fn, params, {"fam": "real", "u": "real", "c": "real"}),
+        (model, params, {"fam": "real", "u": "real", "c": "real"}),
         d,
         target,
         weights=weights,

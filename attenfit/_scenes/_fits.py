@@ -125,16 +125,23 @@ def fit_plan(
     return vals, free
 
 
-def _tied_fn(cls: type[Family]):
-    tied, rule = _TIES[cls.name]
+class _Tied:
+    """`cls` with its range parameter tied to the fitted `r` and the light's range `R`
+    (`_TIES`), as a `(fn, params)` model: `fn(d, {"r": r, "R": R})`."""
 
-    def fn(d, p):
-        return cls(r=p["r"], **{tied: rule(p["r"], p["R"])})(d)
+    def __init__(self, cls: type[Family]):
+        self.cls = cls
+        self.tied, self.rule = _TIES[cls.name]
 
-    return fn
+    def __call__(self, d, p):
+        return self.cls(r=p["r"], **{self.tied: self.rule(p["r"], p["R"])})(d)
+
+    def cache_key(self) -> str:
+        """What this model computes, for the fit stage's cache across processes."""
+        return f"scenes-tied:{self.cls.__module__}.{self.cls.__qualname__}:{self.tied}"
 
 
-_TIED_FNS: dict[str, Any] = {}
+_TIED_FNS: dict[str, _Tied] = {}
 
 
 def _bucket(n: int, lo: int) -> int:
@@ -172,7 +179,7 @@ def fit_group(
         W[k] = np.concatenate([w, np.zeros(n - m)])
     starts = [starts[src] for src in rows]
     if cls.name in _TIES:
-        fn = _TIED_FNS.setdefault(cls.name, _tied_fn(cls))
+        fn = _TIED_FNS.setdefault(cls.name, _Tied(cls))
         params = {"r": np.array([s["r"] for s in starts]), "R": np.array([s["R"] for s in starts])}
         res = fit_many(
             (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)

@@ -43,6 +43,7 @@ from typing import Any
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _progress
 from .._curves import Family, get_family, list_families
 from .._errors import AttenfitError, BadTypeError, BadValueError
 from .._shaders import LANGUAGES, export, measure_throughput, shader_cost
@@ -69,15 +70,17 @@ def check_reaches_zero(model: Family, R: float) -> str | None:
     return f"does not reach 0 at the range {R:g} (f = {where:.3g} there)"
 
 
-def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
+def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
     """Fit and judge every family on `scene`; recommend the cheapest within tolerance.
 
     See the module docstring for how the truth is generated, fitted, judged and ranked.
-    `measure=False` skips the timing (the ranking then uses the operation count and the
-    error only; that takes a few seconds less).
+    `measure=True` also times each candidate on this machine (reported beside the shader
+    cost, which ranks; a few seconds more).
     """
     if not isinstance(scene, Scene):
         raise BadTypeError(f"recommend takes an attenfit.Scene, got {type(scene).__name__}")
+    n_receivers = sum(_receiver_count(r) for r in scene.receivers)
+    _progress.stage(f"ground truth: {len(scene.lights)} lights, up to {n_receivers} receivers each")
     truths = scene.ground_truth()
     datas = [light_data(scene, t) for t in truths]
     for k, x in enumerate(datas):
@@ -95,29 +98,12 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
 
     fitted: dict[str, tuple[list[Family], list[bool], list[str]]] = {}
     candidates: list[Candidate] = []
-    for name in _candidate_names(scene):
-        cls = get_family(name)
-        if scene.reach_zero_at_range and cls.window == "none":
-            candidates.append(
-                Candidate(name, "excluded", "no window: it cannot reach 0 at the range")
-            )
-            continue
-        try:
-            results: list[Any] = [None] * len(datas)
-            plans = [fit_plan(cls, x, d_hi, knots) for x in datas]
-            for free in dict.fromkeys(p[1] for p in plans):
-                group = [k for k, p in enumerate(plans) if p[1] == free]
-                out = fit_group(cls, [datas[k] for k in group], [plans[k] for k in group])
-                for k, r in zip(group, out, strict=True):
-                    results[k] = r
-        except AttenfitError as exc:
-            candidates.append(Candidate(name, "fail", f"could not be fitted: {exc}"))
-            continue
-        fitted[name] = (
-            [r[0] for r in results],
-            [bool(r[1]) for r in results],
-            [r[2] for r in results],
-        )
+    names = _candidate_names(scene)
+    with _progress.count(len(names), f"fitting {len(names)} families") as bar:
+        for name in names:
+            _fit_family(scene, name, datas, d_hi, knots, fitted, candidates)
+            bar.update()
+    _progress.stage("shader costs")
 
     costs: dict[str, float] = {}
     for name, (models, _, _) in fitted.items():
@@ -127,6 +113,7 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
             costs[name] = shader_cost(get_family(name)())
     ns: dict[str, float] = {}
     if measure and fitted:
+        _progress.stage("measuring each candidate on this machine")
         to_time = []
         for models, _, _ in fitted.values():
             m = models[0]
@@ -257,6 +244,48 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
         measured=bool(measure),
         curves=curves,
     )
+
+
+def _fit_family(
+    scene: Scene,
+    name: str,
+    datas: Sequence[LightData],
+    d_hi: float,
+    knots: tuple[float, ...],
+    fitted: dict[str, tuple[list[Family], list[bool], list[str]]],
+    candidates: list[Candidate],
+) -> None:
+    """Fit family `name` to every light of the scene: into `fitted`, or a `Candidate` that
+    says why it was excluded or failed into `candidates`."""
+    cls = get_family(name)
+    if scene.reach_zero_at_range and cls.window == "none":
+        candidates.append(Candidate(name, "excluded", "no window: it cannot reach 0 at the range"))
+        return
+    try:
+        results: list[Any] = [None] * len(datas)
+        plans = [fit_plan(cls, x, d_hi, knots) for x in datas]
+        for free in dict.fromkeys(p[1] for p in plans):
+            group = [k for k, p in enumerate(plans) if p[1] == free]
+            out = fit_group(cls, [datas[k] for k in group], [plans[k] for k in group])
+            for k, r in zip(group, out, strict=True):
+                results[k] = r
+    except AttenfitError as exc:
+        candidates.append(Candidate(name, "fail", f"could not be fitted: {exc}"))
+        return
+    fitted[name] = (
+        [r[0] for r in results],
+        [bool(r[1]) for r in results],
+        [r[2] for r in results],
+    )
+
+
+def _receiver_count(receivers: Any) -> int:
+    """How many receivers a receiver table makes (per light, for a distribution)."""
+    if receivers.kind == "plane":
+        return receivers.resolution**2
+    if receivers.kind == "points":
+        return len(receivers.points)
+    return receivers.n
 
 
 def _short(messages: Sequence[str]) -> str:

@@ -1,0 +1,153 @@
+"""What a long command is doing, said on stderr while it works.
+
+The command line makes one `Progress` per verb and makes it current (`active`); the stages
+below report to the current one through `stage` and `count`, and say nothing when there is
+none (a program using the API). On a terminal, a stage is a line with the time elapsed
+(`attenfit scene: [  2.1 s] fitting 20 families`) and countable work is a bar (tqdm: a
+well-kept library whose bars clean up after themselves and cope with narrow terminals);
+`note` remarks on the work under way (that a first run compiles what later runs load).
+When stderr is not a terminal (a log, a pipe), only the final summary line is written;
+`quiet` silences everything.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import sys
+import time
+from collections.abc import Iterator
+from typing import Any, TextIO
+
+from . import _atomic
+
+__all__ = ["Progress", "active", "count", "done", "note", "stage"]
+
+
+class Progress:
+    """Stage lines, bars and a summary line for one command (`label`, e.g. "attenfit scene")."""
+
+    def __init__(self, label: str, *, quiet: bool = False, stream: TextIO | None = None):
+        self.label = label
+        self.stream = sys.stderr if stream is None else stream
+        self.quiet = quiet
+        self.live = not quiet and _isatty(self.stream)
+        self.start = time.perf_counter()
+
+    def elapsed(self) -> float:
+        return time.perf_counter() - self.start
+
+    def stage(self, text: str) -> None:
+        """Say what the command is doing now (on a terminal only).
+
+        Also a point where an interrupt that Python swallowed (one raised inside a callback
+        that ignores exceptions, e.g. JAX's garbage-collection hook) is raised again, so the
+        command stops at once instead of at its next output.
+        """
+        _atomic.check_pending()
+        if self.live:
+            print(f"{self.label}: [{self.elapsed():5.1f} s] {text}", file=self.stream, flush=True)
+
+    @contextlib.contextmanager
+    def count(self, total: int, text: str) -> Iterator[Any]:
+        """A bar for `total` units of work (on a terminal only); yields `.update(n=1)`."""
+        if not self.live:
+            yield _NoBar()
+            return
+        from tqdm import tqdm
+
+        self.stage(text)
+        with tqdm(
+            total=total, desc=f"{self.label}: {text}", file=self.stream, leave=False, unit=""
+        ) as bar:
+            yield _Bar(bar)
+
+    def done(self, text: str) -> None:
+        """The summary line: what the command did (unless quiet), with the time it took."""
+        if not self.quiet:
+            print(f"{self.label}: {text} ({self.elapsed():.1f} s)", file=self.stream, flush=True)
+
+
+class _NoBar:
+    """Countable work off a terminal: nothing to draw, but still an interrupt check point."""
+
+    def update(self, n: int = 1) -> None:
+        _atomic.check_pending()
+
+    def note(self, text: str) -> None:
+        pass
+
+
+class _Bar(_NoBar):
+    """A tqdm bar; `note` shows a remark beside it (e.g. that a first run compiles)."""
+
+    def __init__(self, bar: Any):
+        self.bar = bar
+
+    def update(self, n: int = 1) -> None:
+        super().update(n)
+        self.bar.update(n)
+
+    def note(self, text: str) -> None:
+        self.bar.set_postfix_str(text, refresh=True)
+
+
+def _isatty(stream: TextIO) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+_CURRENT: contextvars.ContextVar[Progress | None] = contextvars.ContextVar(
+    "attenfit_progress", default=None
+)
+_BAR: contextvars.ContextVar[_NoBar | None] = contextvars.ContextVar("attenfit_bar", default=None)
+
+
+@contextlib.contextmanager
+def active(progress: Progress) -> Iterator[Progress]:
+    """Make `progress` the one `stage` and `count` report to, inside the block."""
+    token = _CURRENT.set(progress)
+    try:
+        yield progress
+    finally:
+        _CURRENT.reset(token)
+
+
+def stage(text: str) -> None:
+    """Tell the current command's `Progress`, if there is one, what is happening now."""
+    progress = _CURRENT.get()
+    if progress is not None:
+        progress.stage(text)
+
+
+def done(text: str) -> None:
+    """The current command's summary line (see `Progress.done`), if there is a command."""
+    progress = _CURRENT.get()
+    if progress is not None:
+        progress.done(text)
+
+
+def note(text: str) -> None:
+    """A remark on the work under way: beside the current bar, else as a stage line."""
+    bar = _BAR.get()
+    if bar is not None:
+        bar.note(text)
+    else:
+        stage(text)
+
+
+@contextlib.contextmanager
+def count(total: int, text: str) -> Iterator[Any]:
+    """A bar on the current command's `Progress` (a no-op without one); yields `.update()`."""
+    progress = _CURRENT.get()
+    if progress is None:
+        yield _NoBar()
+        return
+    with progress.count(total, text) as bar:
+        token = _BAR.set(bar)
+        try:
+            yield bar
+        finally:
+            _BAR.reset(token)
