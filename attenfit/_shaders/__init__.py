@@ -7,6 +7,12 @@ estimate; `_compile`: real compilers) and how precise they are in float16 and fl
 Imports the curves stage (and the fitting stage's results, by duck typing) and nothing above.
 """
 
+from ._compile import Compiled as Compiled
+from ._compile import CompiledCost as CompiledCost
+from ._compile import CompilerError as CompilerError
+from ._compile import compiled_cost as compiled_cost
+from ._compile import compilers as compilers
+from ._compile import cost_method as cost_method
 from ._cost import CATEGORIES as CATEGORIES
 from ._cost import SHADER_WEIGHTS as SHADER_WEIGHTS
 from ._cost import Cost as Cost
@@ -28,6 +34,10 @@ from ._forms import shader_form as shader_form
 from ._ir import ShaderForm as ShaderForm
 from ._ir import evaluate_form as evaluate_form
 from ._model import load_model as load_model
+from ._precision import PRECISIONS as PRECISIONS
+from ._precision import Precision as Precision
+from ._precision import precision as precision
+from ._precision import shade_in as shade_in
 from ._program import Program as Program
 from ._text import float32_literal as float32_literal
 from ._trace import trace as trace

@@ -71,7 +71,8 @@ def _inverse_square(let, d):
 @_form(
     "unreal_epsilon",
     ("eps",),
-    "Unreal CapsuleLightIntegrate.ush (Falloff = 1/(DistSqr + DistBiasSqr)); described, not copied",
+    "Unreal CapsuleLightIntegrate.ush (Falloff = 1/(DistSqr + DistBiasSqr), DistBiasSqr from "
+    "DeferredLightingCommon.ush::GetCapsule); described, not copied",
     engine=True,
     note=_OVERFLOW,
 )
