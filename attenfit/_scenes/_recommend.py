@@ -250,7 +250,7 @@ def recommend(scene: Scene, *, measure: bool = True) -> Recommendation:
         runner_up = failing[0]
     judged = [c for c in candidates if c.error is not None and math.isfinite(c.error)]
     closest = min(judged, key=lambda c: (c.error, c.shader_cost)) if judged else None
-    shaders = _shaders(winner, len(datas)) if winner is not None else {}
+    shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
     truth = tuple(_truth_summary(scene, t, x) for t, x in zip(truths, datas, strict=True))
     return Recommendation(
         scene=scene,
@@ -320,20 +320,28 @@ def _truth_summary(scene: Scene, t: LightTruth, x: LightData) -> dict[str, Any]:
     }
 
 
-def _shaders(winner: Candidate, n_lights: int) -> dict[str, str]:
-    """The winner's exported function per language (baked for one light, uniforms for several)."""
+def _shaders(winner: Candidate, n_lights: int, source: str) -> dict[str, str]:
+    """The winner's exported shader form per language (baked for one light, uniforms for
+    several), its header quoting the error over the scene."""
     out = {}
     model = winner.models[0]
     spot = next((m for m in winner.spot_models if m is not None), None)
     for lang in LANGUAGES:
         parts = []
+        fit = {  # the header quotes the fitted error (through the export's sanitiser)
+            "family": model.name,
+            "params": _plain_params(model),
+            "metrics": {"max_error_over_the_scene": winner.error},
+            "converged": winner.converged,
+            "configuration": f"the scene {source}",
+        }
         if n_lights > 1:
             parts.append(
                 "// several lights: parameters are uniforms (C: arguments); per-light values are in recommendation.md\n"
             )
-            parts.append(export(model, lang, uniforms=True))
+            parts.append(export(fit, lang, uniforms=True))
         else:
-            parts.append(export(model, lang))
+            parts.append(export(fit, lang))
         if spot is not None:
             parts.append(
                 "\n// spot falloff: the argument d is cos(angle between the spot direction and the light-to-receiver direction)\n"
