@@ -1,17 +1,24 @@
-"""A family as a self-contained GLSL, HLSL, WGSL or C function, printed from the expression the
-JAX code evaluates. Implemented in `attenfit._shaders._export`; docs/shaders.md.
+"""A family as a self-contained GLSL, HLSL, WGSL, C or CUDA function: its shader form (the
+engines' expression) or its stable form (the expression the JAX code evaluates). Implemented
+in `attenfit._shaders._export`; docs/shaders.md.
 """
 
+from ._shaders._export import FORMS as FORMS
 from ._shaders._export import LANGUAGES as LANGUAGES
 from ._shaders._export import UnsupportedPrimitiveError as UnsupportedPrimitiveError
 from ._shaders._export import export as export
-from ._shaders._export import float32_literal as float32_literal
-from ._shaders._export import load_model as load_model
+from ._shaders._forms import SHADER_FORMS as SHADER_FORMS
+from ._shaders._forms import shader_form as shader_form
+from ._shaders._model import load_model as load_model
+from ._shaders._text import float32_literal as float32_literal
 
 __all__ = [
+    "FORMS",
     "LANGUAGES",
+    "SHADER_FORMS",
     "UnsupportedPrimitiveError",
     "export",
     "float32_literal",
     "load_model",
+    "shader_form",
 ]

@@ -1177,7 +1177,12 @@ CLI_CASES: list[tuple[str, list[Any], str]] = [
     (
         "export-unknown-language",
         ["export", "yuksel", "--lang", "cobol"],
-        "--lang must be one of glsl, hlsl, wgsl, c, got 'cobol'",
+        "--lang must be one of glsl, hlsl, wgsl, c, cuda, got 'cobol'",
+    ),
+    (
+        "export-unknown-form",
+        ["export", "yuksel", "--form", "fast"],
+        "--form must be one of shader, stable, got 'fast'",
     ),
     (
         "export-param-syntax",

@@ -54,7 +54,13 @@ def inputs():
 
 @pytest.mark.parametrize("name", list(generate.SECTIONS))
 def test_generated_section_is_current(name, inputs):
-    made = generate.SECTIONS[name].make(inputs).rstrip("\n")
+    try:
+        made = generate.SECTIONS[name].make(inputs).rstrip("\n")
+    except generate.SkipSection as why:
+        pytest.skip(str(why))
+    first, page_first = made.split("\n", 1)[0], generate.current(name).split("\n", 1)[0]
+    if first.startswith("Compiled with") and first != page_first:
+        pytest.skip(f"{name}: this machine's compilers differ from the page's ({first})")
     assert same_text(made, generate.current(name)), (
         f"{generate.SECTIONS[name].page}: section {name!r} is stale; run `make docs`"
     )

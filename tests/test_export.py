@@ -99,8 +99,8 @@ def c_library(tmp_path_factory):
     src = ["#include <math.h>\n"]
     for k, name in enumerate(FAMILIES):
         fam = attenfit.get_family(name)()
-        src.append(ex.export(fam, "c", name=f"baked_{k}"))
-        src.append(ex.export(fam, "c", name=f"args_{k}", uniforms=True))
+        src.append(ex.export(fam, "c", name=f"baked_{k}", form="stable"))
+        src.append(ex.export(fam, "c", name=f"args_{k}", uniforms=True, form="stable"))
         n_args = sum(len(v) for v in trace(fam).params.values())
         args = "".join(f", p[{i}]" for i in range(n_args))
         src.append(
@@ -211,11 +211,19 @@ def test_inverse_square_exports_one_multiply_and_one_division():
 
 
 def test_yuksel_glsl_has_one_sqrt_and_the_stable_form():
-    src = ex.export("yuksel", "glsl")
+    src = ex.export("yuksel", "glsl", form="stable")
     body = src[src.index("{") :]
     assert body.count("sqrt(") == 1
     assert "2.0 /" in body  # 2/(s(s+d)), not 2/r^2 (1 - d/s)
     assert "Yuksel" in src  # the citation in the header
+
+
+def test_yuksel_shader_form_is_eevees_expression():
+    src = ex.export("yuksel", "glsl", params={"r": 0.05})
+    body = src[src.index("{") :]
+    assert "return 2.0 / (d_sqr + r_sqr + d * sqrt(d_sqr + r_sqr));" in body
+    assert "eevee_light_lib.glsl::light_point_light" in src  # the engine cited
+    assert "?" not in body and "uintBitsToFloat" not in body  # no guards
 
 
 def test_header_cites_source_formula_and_parameters():
@@ -271,7 +279,8 @@ def test_fitresult_like_objects_are_accepted():
 @pytest.mark.parametrize(
     ("args", "kwargs", "exc", "message"),
     [
-        (("yuksel", "cuda"), {}, attenfit.UnknownNameError, "unknown language 'cuda'"),
+        (("yuksel", "fortran"), {}, attenfit.UnknownNameError, "unknown language 'fortran'"),
+        (("yuksel",), {"form": "fast"}, attenfit.UnknownNameError, "unknown form 'fast'"),
         (("no_such_family",), {}, attenfit.UnknownNameError, "unknown family 'no_such_family'"),
         (("yuksel",), {"name": "2bad"}, attenfit.BadValueError, "function name '2bad'"),
         (("yuksel",), {"params": {"q": 1.0}}, attenfit.UnknownNameError, "no parameter 'q'"),
@@ -310,18 +319,21 @@ def test_missing_fit_file_is_a_data_file_error(tmp_path):
 
 # ----------------------------------------------------------------------------- validators
 def _sources(lang: str) -> str:
-    """Every family, baked and with uniforms, as one translation unit per language."""
+    """Every family in both forms, baked and with uniforms, as one translation unit."""
     parts = []
     for k, name in enumerate(FAMILIES):
-        parts.append(ex.export(name, lang, name=f"baked_{k}"))
-        parts.append(ex.export(name, lang, name=f"unif_{k}", uniforms=True))
+        for form in ex.FORMS:
+            parts.append(ex.export(name, lang, name=f"baked_{form}_{k}", form=form))
+            parts.append(ex.export(name, lang, name=f"unif_{form}_{k}", uniforms=True, form=form))
     return "\n".join(parts)
 
 
 def _calls(lang: str) -> str:
     if lang == "c":
         return ""
-    return " + ".join(f"baked_{k}(v) + unif_{k}(v)" for k in range(len(FAMILIES)))
+    return " + ".join(
+        f"baked_{f}_{k}(v) + unif_{f}_{k}(v)" for k in range(len(FAMILIES)) for f in ex.FORMS
+    )
 
 
 def _need(tool: str) -> str:
@@ -432,8 +444,8 @@ def test_cli_export_of_a_fit_file(tmp_path, capsys):
     ("argv", "message"),
     [
         (
-            ["export", "yuksel", "--lang", "cuda"],
-            "--lang must be one of glsl, hlsl, wgsl, c, got 'cuda'",
+            ["export", "yuksel", "--lang", "fortran"],
+            "--lang must be one of glsl, hlsl, wgsl, c, cuda, got 'fortran'",
         ),
         (["export", "yuksel", "--param", "r"], "--param must be NAME=NUMBER, got 'r'"),
         (

@@ -259,8 +259,16 @@ def test_datasets_become_configurations(tmp_path, capsys, monkeypatch):
     assert {c["name"] for c in data["configurations"]} == {"disk", "plane"}
 
 
-def test_published_figures_drawn_during_the_fits_are_the_ones_written(report, tmp_path):
-    # build_report draws the published figures in a thread while the fits compile
+def test_published_figures_drawn_during_the_fits_are_the_ones_written(tmp_path):
+    # with figures_early, build_report draws the published figures in a thread while the
+    # fits compile (the CLI's report), and writing the report uses them
+    report = build_report(
+        families=["inverse_square", "yuksel"],
+        sweep_n=16,
+        plane_px=8,
+        cost=False,
+        figures_early=True,
+    )
     pre = report._prerendered
     assert {"disk_attenuation_published", "sphere_plane_errors"} <= set(pre)
     out = report.write(tmp_path / "rep", svg=False)

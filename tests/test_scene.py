@@ -146,7 +146,7 @@ BAD = [
     (
         "tolerance = 0.05\n[constraints]\nfloat64 = true\n" + _LIGHT + _RECV,
         UnknownNameError,
-        "bad.toml: [constraints]: unknown key 'float64'; allowed: reach_zero_at_range, float32, families",
+        "bad.toml: [constraints]: unknown key 'float64'; allowed: reach_zero_at_range, precision, float32, families",
     ),
     (
         "tolerance = 0.05\n" + _RECV,
@@ -426,7 +426,7 @@ def test_cli_scene_writes_files(tmp_path, capsys):
             "recommendation.md",
             "recommendation.json",
             "errors.png",
-            *(f"attenfit_inverse_square.{x}" for x in ("glsl", "hlsl", "wgsl", "c")),
+            *(f"attenfit_inverse_square.{x}" for x in ("glsl", "hlsl", "wgsl", "c", "cuda")),
         ]
     )
     data = json.loads((out / "recommendation.json").read_text())

@@ -1,4 +1,4 @@
-"""`attenfit export`: a (fitted) family as a GLSL, HLSL, WGSL or C function."""
+"""`attenfit export`: a (fitted) family as a GLSL, HLSL, WGSL, C or CUDA function."""
 
 from __future__ import annotations
 
@@ -13,16 +13,26 @@ def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
         "export",
         parents=parents,
-        help="write a (fitted) family as a GLSL, HLSL, WGSL or C function",
-        description="Print (or write with --out) a self-contained shader or C function of a "
-        "family, generated from the expression the JAX code evaluates.",
+        help="write a (fitted) family as a GLSL, HLSL, WGSL, C or CUDA function",
+        description="Print (or write with --out) a self-contained shader, C or CUDA function of "
+        "a family: its shader form (the engines' expression, the default) or its stable form "
+        "(the guarded expression the JAX code evaluates).",
     )
     p.add_argument(
         "source",
         metavar="FAMILY|FIT.json",
         help="a family name (see `attenfit families`) or a fit written by `attenfit fit --out`",
     )
-    p.add_argument("--lang", default="glsl", help="glsl (default), hlsl, wgsl or c", metavar="LANG")
+    p.add_argument(
+        "--lang", default="glsl", help="glsl (default), hlsl, wgsl, c or cuda", metavar="LANG"
+    )
+    p.add_argument(
+        "--form",
+        default="shader",
+        metavar="FORM",
+        help="shader (default: the engines' expression, no guards) or stable (attenfit's "
+        "guarded form)",
+    )
     p.add_argument(
         "--param",
         action="append",
@@ -49,10 +59,12 @@ def add_parser(sub, parents: list) -> None:
 
 def _run_export(args: argparse.Namespace) -> int:
     from .._atomic import atomic_write, check_output_path
-    from .._shaders import LANGUAGES, export
+    from .._shaders import FORMS, LANGUAGES, export
 
     if args.lang not in LANGUAGES:
         raise BadValueError(f"--lang must be one of {', '.join(LANGUAGES)}, got {args.lang!r}")
+    if args.form not in FORMS:
+        raise BadValueError(f"--form must be one of {', '.join(FORMS)}, got {args.form!r}")
     params = {}
     for item in args.param:
         key, sep, value = item.partition("=")
@@ -71,6 +83,7 @@ def _run_export(args: argparse.Namespace) -> int:
         name=args.name,
         params=params or None,
         family=args.family,
+        form=args.form,
     )
     if args.out is None:
         print(text, end="")

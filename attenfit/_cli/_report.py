@@ -74,6 +74,7 @@ def _run_report(args: argparse.Namespace) -> int:
         fitted=not args.no_fit,
         sweep_n=args.sweep_n,
         plane_px=args.plane_px,
+        figures_early=True,
         progress=_progress.stage,
     )
     _progress.stage("writing figures and tables")

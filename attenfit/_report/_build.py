@@ -104,6 +104,7 @@ def build_report(
     sweep_n: int = SWEEP_N,
     plane_px: int = PLANE_PX,
     cost: bool | str = True,
+    figures_early: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Report:
     """Compare `families` (default: every registered one) against `emitters` and `datasets`.
@@ -118,6 +119,8 @@ def build_report(
         sweep_n, plane_px: samples per sweep and pixels per plane side.
         cost: each family's cost: True, operation counts and measured time per evaluation;
             "counts", the operation counts only (deterministic, faster); False, none.
+        figures_early: draw the published figures in a second thread while the fits run, for
+            a report that will be written (`Report.write` then uses them).
         progress: called with one line per stage (the CLI prints it on stderr).
     """
     import jax
@@ -165,7 +168,11 @@ def build_report(
                 )
         timings["published"] = time.perf_counter() - t
 
-        painter = _start_prerender(classes, configs, results, models, values) if fitted else None
+        painter = (
+            _start_prerender(classes, configs, results, models, values)
+            if fitted and figures_early
+            else None
+        )
         if fitted:
             t = time.perf_counter()
             sweep_cfgs = [c for c in configs if c.sweep is not None]

@@ -19,12 +19,13 @@ def plot_cost_vs_error(
     by: str = "shader_cost",
     ax: Any = None,
     title: str | None = None,
+    xlabel: str | None = None,
 ) -> tuple[Any, Any]:
     """Error against cost, log-log, one labelled point per family, the Pareto front drawn.
 
     Returns `(fig, ax)`; draws into `ax` when given. Errors of 0 are drawn at the bottom
     of the axis (at a tenth of the smallest positive error), infinite ones are left out
-    and named in the legend.
+    and named in the legend. `xlabel` names the cost (default: after `by`).
     """
     import matplotlib.pyplot as plt
 
@@ -32,11 +33,15 @@ def plot_cost_vs_error(
     finite = {k: v for k, v in pf.error.items() if np.isfinite(v)}
     positive = [v for v in finite.values() if v > 0]
     floor = min(positive) / 10 if positive else 1e-8
-    xlabel = {
-        "shader_cost": "shader cost (full-rate ALU instructions per evaluation)",
-        "ns_per_eval": "measured time per evaluation (ns)",
-        "ratio_to_inverse_square": "measured time relative to inverse-square",
-    }[by]
+    xlabel = (
+        {
+            "shader_cost": "shader cost (full-rate ALU instructions per evaluation)",
+            "ns_per_eval": "measured time per evaluation (ns)",
+            "ratio_to_inverse_square": "measured time relative to inverse-square",
+        }[by]
+        if xlabel is None
+        else xlabel
+    )
     style = {"font.size": 9, "axes.grid": True, "grid.alpha": 0.3, "axes.titlesize": 10}
     with plt.rc_context(style):
         if ax is None:

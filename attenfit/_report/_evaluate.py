@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._shaders import cost_table
+from .._shaders import compiled_cost, cost_table, precision
 from . import _metrics as M
 from ._configs import Config
 from ._published import range_of
@@ -125,37 +125,48 @@ def _ns_per_eval(model: Any, n: int = 1 << 16, repeats: int = 7) -> float:
 def family_costs(
     names: Sequence[str], instances: Mapping[str, Any], *, measure: bool = True
 ) -> dict[str, Any]:
-    """Cost of each family: `attenfit.cost.cost_table` (operation counts and shader cost, and
-    unless `measure` is False the measured ns/eval and its ratio to inverse-square in the same
-    run); the stand-in `_ns_per_eval` if that fails."""
+    """Cost of each family: the compiled cost of its shader form (`attenfit.cost.compiled_cost`:
+    SPIR-V and SASS instruction counts, or the labelled estimate without compilers) beside its
+    stable form's, the shader form's precision in float32 and float16, and
+    `attenfit.cost.cost_table` (operation counts of the traced expression and, unless
+    `measure` is False, the measured ns/eval and its ratio to inverse-square in the same run);
+    the stand-in `_ns_per_eval` if the tracer cannot read a family."""
     try:
         table = cost_table([instances[n] for n in names], measure=measure, n=1 << 16, repeats=5)
+    except Exception as exc:  # a family the tracer cannot read: time them all the plain way
+        note = f"attenfit.cost unavailable ({type(exc).__name__}: {exc}); "
         return {
             n: {
-                "ns_per_eval": table[n].ns_per_eval,
-                "ns_iqr": table[n].ns_iqr,
-                "ratio_to_inverse_square": table[n].ratio_to_inverse_square,
-                "shader_cost": table[n].shader_cost,
-                "ops": dict(table[n].ops),
-                "method": (
-                    "attenfit.cost.cost_table: float32, jitted, 65536 distances, median of 5 "
-                    "interleaved repeats; shader cost in full-rate ALU instructions"
-                    if measure
-                    else "attenfit.cost.cost_table: shader cost in full-rate ALU instructions "
-                    "(operation counts of the traced expression; not timed)"
-                ),
+                "ns_per_eval": _ns_per_eval(instances[n]),
+                "method": note + "jit float32, 65536 distances, median of 7",
             }
             for n in names
         }
-    except Exception as exc:  # a family the tracer cannot read: time them all the plain way
-        note = f"attenfit.cost unavailable ({type(exc).__name__}: {exc}); "
-    return {
-        n: {
-            "ns_per_eval": _ns_per_eval(instances[n]),
-            "method": note + "jit float32, 65536 distances, median of 7",
+    out = {}
+    for n in names:
+        shader = compiled_cost(instances[n])
+        stable = compiled_cost(instances[n], form="stable")
+        prec = {dt: precision(instances[n], dt) for dt in ("float32", "float16")}
+        timed = (
+            "; time: attenfit.cost.cost_table, float32, jitted, 65536 distances, median of 5 "
+            "interleaved repeats"
+            if measure
+            else ""
+        )
+        out[n] = {
+            "ns_per_eval": table[n].ns_per_eval,
+            "ns_iqr": table[n].ns_iqr,
+            "ratio_to_inverse_square": table[n].ratio_to_inverse_square,
+            "shader_cost": shader.cost,
+            "cost_label": shader.label(),
+            "compiled": {"shader": shader.to_dict(), "stable": stable.to_dict()},
+            "precision": {dt: (p.to_dict() if p else None) for dt, p in prec.items()},
+            "estimate": table[n].shader_cost,
+            "ops": dict(table[n].ops),
+            "method": f"cost of the shader form (what `attenfit export` writes): {shader.label()}"
+            + timed,
         }
-        for n in names
-    }
+    return out
 
 
 def truth_interpolator(c: Config) -> Callable[[float], float] | None:

@@ -187,6 +187,7 @@ def _cost_vs_error(report):
                 {k: costs[k] for k in errors},
                 by="shader_cost",
                 ax=axes[i, j],
+                xlabel=next(iter(report.costs.values())).get("cost_label", "shader cost"),
                 title=f"{cfg.name}, {mode_text}: max |relative error| (in range) against cost",
             )
             used.add((i, j))

@@ -201,24 +201,34 @@ class Report:
             "report's Windows table has the rest). *published*: the source's parameters for this light; *fitted*: least squares "
             "on the relative error. Plane energy: the published curve on the plane with the "
             f"light {'touching it' if plane_cfg is not None and plane_cfg.kind == 'sphere' else 'above it'}. "
-            "Shader cost: full-rate ALU instructions per evaluation (`attenfit.cost`; measured "
-            "times are in report.json and results.csv)."
+            "Shader cost: "
+            + (next(iter(self.costs.values())).get("cost_label", "") if self.costs else "")
+            + " of the shader form `attenfit export` writes (`attenfit.cost.compiled_cost`; "
+            "measured times are in report.json and results.csv)."
         )
         return "\n".join(lines) + "\n\n" + note + "\n"
 
     def cost_markdown(self) -> str:
-        """One row per family: shader cost, measured time per evaluation, ratio to 1/d^2."""
+        """One row per family: compiled cost of the shader and stable forms, the float16 band
+        within 1%, measured time per evaluation and its ratio to 1/d^2."""
         lines = [
-            md_row(["family", "shader cost (ALU ops)", "ns / eval", "time / inverse_square"]),
-            md_row(["---", "---:", "---:", "---:"]),
-        ]
+            md_row(["family", "cost, shader form", "cost, stable form", "SASS (MUFU), shader",
+                    "float16 within 1%", "ns / eval", "time / inverse_square"]),
+            md_row(["---", "---:", "---:", "---:", "---", "---:", "---:"]),
+        ]  # fmt: skip
         for fam in self.families:
             c = self.costs.get(fam) or {}
+            comp = c.get("compiled") or {}
+            sass = (comp.get("shader") or {}).get("sass")
+            band = (((c.get("precision") or {}).get("float16")) or {}).get("band")
             lines.append(
                 md_row(
                     [
                         f"`{fam}`",
                         fmt_num(c.get("shader_cost")),
+                        fmt_num((comp.get("stable") or {}).get("cost")),
+                        "-" if not sass else f"{sass['total']} ({sass['classes']['mufu']})",
+                        "-" if not band else f"{band[0]:.3g} to {band[1]:.4g} m",
                         fmt_num(c.get("ns_per_eval"), digits=2),
                         fmt_num(c.get("ratio_to_inverse_square"), digits=2),
                     ]

@@ -23,7 +23,7 @@ from .._curves import (
 )
 from .._errors import AttenfitError
 from .._fit import fit, fit_many
-from .._shaders import measure_throughput, shader_cost
+from .._shaders import compiled_cost, measure_throughput, shade_in
 from ._scene import Scene
 from ._types import LightTruth
 
@@ -196,10 +196,19 @@ def fit_group(
     return [(res[k].model, res[k].converged, res[k].message) for k in range(len(datas))]
 
 
-def shade(model: Family, x: np.ndarray, float32: bool) -> np.ndarray:
-    if float32:
+def shade(model: Family, x: np.ndarray, precision: str) -> np.ndarray:
+    """`model` at `x` as the scene shades it: in float64 the JAX reference form; in float32
+    or float16 the shader form (what `attenfit export` writes), every operation rounded to
+    that precision. A family without a shader form ships its stable form: float32 evaluates
+    that; in float16 it cannot be judged (an `AttenfitError`)."""
+    if precision == "float64":
+        return np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+    values = shade_in(model, np.asarray(x, np.float64), precision)
+    if values is not None:
+        return values.astype(np.float64)
+    if precision == "float32":
         return np.asarray(float32_family(model)(jnp.asarray(x, jnp.float32)), dtype=np.float64)
-    return np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+    raise AttenfitError(f"{model.name} has no shader form to evaluate in {precision}")
 
 
 def judged_errors(data: LightData, f: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -267,7 +276,7 @@ def spot_variants(
             )
         ], []
     variants, fits = [], []
-    costs = {c: shader_cost(cls()) for c, cls in SPOT_FALLOFFS.items()}
+    costs = {c: compiled_cost(cls(), sass=False).cost for c, cls in SPOT_FALLOFFS.items()}
     ns: dict[str, float] = {}
     if measure:
         timed = measure_throughput([SpotFrostbite(), SpotThreeJS()], n=1 << 16, repeats=5)
@@ -284,12 +293,12 @@ def spot_variants(
                 if fitted:
                     try:
                         m = _fit_falloff(x, curve)
-                        g = shade(m, x.cos_s, scene.float32)
+                        g = shade(m, x.cos_s, scene.precision)
                     except AttenfitError:
                         m, g = None, np.full_like(x.d, np.nan)
                 else:
                     m = SPOT_FALLOFFS[curve](umbra=x.spot[0], penumbra=x.spot[1])
-                    g = shade(m, x.cos_s, scene.float32)
+                    g = shade(m, x.cos_s, scene.precision)
                 models.append(m)
                 gs.append(g)
                 err = judged_errors(x, x.E_irr / x.wpt, g)

@@ -23,15 +23,18 @@
    are not judged (the engine culls them), nor are receivers facing away from the light's
    centre (every point-light model gives 0 there; the count of those that the truth still
    lights is reported). With `float32`, candidates are evaluated in float32.
-5. **Rank** the candidates within tolerance by shader cost (`attenfit.cost.shader_cost`:
-   the per-evaluation operation count of the traced expression, weighted by GPU issue
-   rates), then by error, then by measured time (`attenfit.cost.measure_throughput`, when
-   `measure=True`; reported for every candidate). The operation count is the primary key
-   because it is deterministic and describes the GPU shader the user will ship, while the
-   measured time is of XLA on this machine's CPU (or GPU) and moves by 10-30% between runs on
-   a shared machine; families with the same operation count (`disk_facing`,
-   `unreal_epsilon`, `yuksel_adhoc` are one expression, 1/(d^2 + c)) are then told apart by
-   accuracy, not by timing noise.
+5. **Rank** the candidates within tolerance by the compiled cost of their shader form, the
+   code `attenfit export` writes (`attenfit.cost.structural_cost`: SPIR-V instructions from
+   glslangValidator and `spirv-opt -O`, else NVIDIA SASS instructions, else the labelled
+   traced-operation estimate; counted with generic parameter values, so a family costs the
+   same for every light, as in an engine that reads them from the light), then by error, then by measured time
+   (`attenfit.cost.measure_throughput`, when `measure=True`; reported for every candidate).
+   The compiled count is the primary key because it is deterministic and describes the
+   shader the user will ship, while the measured time is of XLA on this machine and moves
+   by 10-30% between runs on a shared machine. A scene's `precision` (float32, float16)
+   evaluates every shader form in that precision at the judged receivers: a family that
+   overflows or flushes to 0 there is refused with the reason, one that loses accuracy is
+   judged on what it computes.
 """
 
 from __future__ import annotations
@@ -46,7 +49,7 @@ import numpy as np
 from .. import _progress
 from .._curves import Family, get_family, list_families
 from .._errors import AttenfitError, BadTypeError, BadValueError
-from .._shaders import LANGUAGES, export, measure_throughput, shader_cost
+from .._shaders import LANGUAGES, export, measure_throughput, structural_cost
 from ._fits import LightData, fit_group, fit_plan, judged_errors, light_data, shade, spot_variants
 from ._recommendation import Candidate, Recommendation, pct
 from ._scene import Scene
@@ -74,7 +77,7 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
     """Fit and judge every family on `scene`; recommend the cheapest within tolerance.
 
     See the module docstring for how the truth is generated, fitted, judged and ranked.
-    `measure=True` also times each candidate on this machine (reported beside the shader
+    `measure=True` also times each candidate on this machine (reported beside the compiled
     cost, which ranks; a few seconds more).
     """
     if not isinstance(scene, Scene):
@@ -106,11 +109,13 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
     _progress.stage("shader costs")
 
     costs: dict[str, float] = {}
+    cost_label = ""
     for name, (models, _, _) in fitted.items():
         try:
-            costs[name] = shader_cost(models[0])
-        except (AttenfitError, ValueError):
-            costs[name] = shader_cost(get_family(name)())
+            c = structural_cost(models[0])
+        except (AttenfitError, ValueError):  # parameters a shader cannot bake (non-finite)
+            c = structural_cost(get_family(name)())
+        costs[name], cost_label = c.cost, c.label()
     ns: dict[str, float] = {}
     if measure and fitted:
         _progress.stage("measuring each candidate on this machine")
@@ -129,7 +134,9 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
         bad = None
         for x, m in zip(datas, models, strict=True):
             try:
-                f_by_light.append(shade(m, x.d, scene.float32))
+                f = shade(m, x.d, scene.precision)
+                bad = bad or _precision_problem(m, x.d, f, scene.precision)
+                f_by_light.append(f)
             except AttenfitError as exc:
                 bad = str(exc)
                 f_by_light.append(np.full_like(x.d, np.nan))
@@ -160,10 +167,7 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
         message = "; ".join(dict.fromkeys(msgs))
         status, reason = "pass", "within tolerance"
         if bad is not None or not math.isfinite(e):
-            status, reason = (
-                "fail",
-                f"non-finite values at the scene's receivers{': ' + bad if bad else ''}",
-            )
+            status, reason = "fail", bad or "non-finite values at the scene's receivers"
         elif e > scene.tolerance:
             status = "fail"
             reason = f"error {pct(e)} > tolerance {pct(scene.tolerance)}"
@@ -205,8 +209,12 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
         )
 
     def cost_key(c: Candidate):
+        # errors equal to 3 digits are a tie (compiled code often is: disk_facing with r = 0
+        # bakes into inverse_square's shader); then the family with fewer parameters wins
         return (
             c.shader_cost,
+            float(f"{c.error:.3g}"),
+            len(c.params[0]) if c.params else 0,
             c.error,
             c.ns_per_eval if c.ns_per_eval is not None else 0.0,
             c.family,
@@ -230,7 +238,7 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
         runner_up = failing[0]
     judged = [c for c in candidates if c.error is not None and math.isfinite(c.error)]
     closest = min(judged, key=lambda c: (c.error, c.shader_cost)) if judged else None
-    shaders = _shaders(winner, len(datas)) if winner is not None else {}
+    shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
     truth = tuple(_truth_summary(scene, t, x) for t, x in zip(truths, datas, strict=True))
     return Recommendation(
         scene=scene,
@@ -243,6 +251,7 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
         directional_fits=tuple(directional_fits),
         measured=bool(measure),
         curves=curves,
+        cost_label=cost_label,
     )
 
 
@@ -288,6 +297,22 @@ def _receiver_count(receivers: Any) -> int:
     return receivers.n
 
 
+def _precision_problem(model: Family, d: np.ndarray, f: np.ndarray, precision: str) -> str | None:
+    """Why the shader form fails in `precision` at the distances `d` (None if it does not):
+    it overflows, or flushes to 0 where its float64 value is not 0."""
+    if precision == "float64":
+        return None
+    ref = shade(model, d, "float64")
+    for what, where in (
+        ("overflows (inf)", ~np.isfinite(f) & np.isfinite(ref)),
+        ("flushes to 0", (f == 0) & (ref > 0)),
+    ):
+        if where.any():
+            lo, hi = float(d[where].min()), float(d[where].max())
+            return f"fails in {precision}: {what} for d in [{lo:.3g}, {hi:.3g}] m"
+    return None
+
+
 def _short(messages: Sequence[str]) -> str:
     """The first sentence of the first message that is not plain "converged"."""
     for m in messages:
@@ -325,20 +350,28 @@ def _truth_summary(scene: Scene, t: LightTruth, x: LightData) -> dict[str, Any]:
     }
 
 
-def _shaders(winner: Candidate, n_lights: int) -> dict[str, str]:
-    """The winner's exported function per language (baked for one light, uniforms for several)."""
+def _shaders(winner: Candidate, n_lights: int, source: str) -> dict[str, str]:
+    """The winner's exported shader form per language (baked for one light, uniforms for
+    several), its header quoting the error over the scene."""
     out = {}
     model = winner.models[0]
     spot = next((m for m in winner.spot_models if m is not None), None)
     for lang in LANGUAGES:
         parts = []
+        fit = {  # the header quotes the fitted error (through the export's sanitiser)
+            "family": model.name,
+            "params": _plain_params(model),
+            "metrics": {"max_error_over_the_scene": winner.error},
+            "converged": winner.converged,
+            "configuration": f"the scene {source}",
+        }
         if n_lights > 1:
             parts.append(
                 "// several lights: parameters are uniforms (C: arguments); per-light values are in recommendation.md\n"
             )
-            parts.append(export(model, lang, uniforms=True))
+            parts.append(export(fit, lang, uniforms=True))
         else:
-            parts.append(export(model, lang))
+            parts.append(export(fit, lang))
         if spot is not None:
             parts.append(
                 "\n// spot falloff: the argument d is cos(angle between the spot direction and the light-to-receiver direction)\n"

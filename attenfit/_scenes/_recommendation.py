@@ -103,6 +103,7 @@ class Recommendation:
     curves: Mapping[str, tuple[np.ndarray, np.ndarray]] = dataclasses.field(
         default_factory=dict, repr=False, compare=False
     )
+    cost_label: str = ""
 
     @property
     def tolerance(self) -> float:
@@ -131,7 +132,9 @@ class Recommendation:
             "tolerance": self.tolerance,
             "error_floor": self.scene.error_floor,
             "summary": self.summary(),
-            "ranking": "shader_cost, then error, then measured ns_per_eval",
+            "ranking": "shader_cost (compiled cost of the shader form), then error, then "
+            "measured ns_per_eval",
+            "cost": self.cost_label,
             "measured": self.measured,
             "winner": None if self.winner is None else self.winner.to_dict(),
             "runner_up": None if self.runner_up is None else self.runner_up.to_dict(),
@@ -155,13 +158,14 @@ class Recommendation:
             c
             for c, on in (
                 ("reach 0 at the range", s.reach_zero_at_range),
-                ("float32 shading", s.float32),
+                (f"{s.precision} shading", s.precision != "float64"),
             )
             if on
         ]
         lines += [
             f"Tolerance {pct(s.tolerance)} (max relative error of the irradiance){floor}; "
-            f"constraints: {', '.join(cons) or 'none'}. Ranked by shader cost (operation count), "
+            f"constraints: {', '.join(cons) or 'none'}. Ranked by the compiled cost of the shader "
+            f"form ({self.cost_label or 'not computed'}), "
             f"then error{', then measured time' if self.measured else ''}.",
             "",
             "## What was generated (only the scene's configurations)",

@@ -30,11 +30,17 @@ class Scene:
     error_floor: float = 0.0
     reach_zero_at_range: bool = False
     float32: bool = False
+    precision: str = "float64"
     families: tuple[str, ...] | None = None
     name: str = ""
     description: str = ""
     seed: int = 0
     source: str = "<scene>"
+
+    def __post_init__(self) -> None:
+        if self.float32 and self.precision == "float64":  # `float32=True` says float32
+            object.__setattr__(self, "precision", "float32")
+        object.__setattr__(self, "float32", self.precision == "float32")
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -59,6 +65,7 @@ class Scene:
         cons: dict[str, Any] = {
             "reach_zero_at_range": self.reach_zero_at_range,
             "float32": self.float32,
+            "precision": self.precision,
         }
         if self.families is not None:
             cons["families"] = list(self.families)

@@ -40,7 +40,8 @@ SCENE_KEYS: dict[str, dict[str, str]] = {
     },
     "[constraints]": {
         "reach_zero_at_range": "optional, default false; the curve must reach 0 at each light's `range` (so culling there leaves no seam): only windowed families qualify, their range pinned to the light's",
-        "float32": "optional, default false; shading is float32: every candidate is evaluated in float32 (fits run in float64; their parameters are rounded to float32)",
+        "precision": "optional, default float64; the precision the scene shades in: float32 | float16 (GLSL mediump, HLSL min16float). Every candidate's shader form (what `attenfit export` writes) is evaluated in it, per operation, at the judged receivers; a family that overflows, flushes to 0 or leaves the tolerance there fails with the reason. float64 judges the JAX reference form (fits run in float64; their parameters are rounded to float32 for float32 and float16)",
+        "float32": 'optional, default false; `float32 = true` is `precision = "float32"`',
         "families": "optional list of family names; only these are candidates (default: every registered family)",
     },
     "[[lights]]": {
@@ -90,7 +91,9 @@ _TOP = (
     "receivers",
     "constraints",
 )
-_CONSTRAINTS = ("reach_zero_at_range", "float32", "families")
+_CONSTRAINTS = ("reach_zero_at_range", "precision", "float32", "families")
+#: The precisions a scene may declare.
+SCENE_PRECISIONS = ("float64", "float32", "float16")
 _LIGHT_COMMON = ("kind", "radius", "position", "height", "intensity", "range")
 
 _RECEIVER_KEYS = {
@@ -284,7 +287,7 @@ def parse_scene(d: Mapping[str, Any], source: str) -> dict[str, Any]:
     description = _string(d["description"], "description", w) if "description" in d else ""
     seed = _integer(d["seed"], "seed", w, 0, 2**63 - 1) if "seed" in d else 0
 
-    reach_zero, float32, families = False, False, None
+    reach_zero, float32, families, precision = False, False, None, "float64"
     if "constraints" in d:
         cons = _table(d["constraints"], "constraints", w)
         wc = w.at("[constraints]")
@@ -293,6 +296,17 @@ def parse_scene(d: Mapping[str, Any], source: str) -> dict[str, Any]:
             reach_zero = _boolean(cons["reach_zero_at_range"], "reach_zero_at_range", wc)
         if "float32" in cons:
             float32 = _boolean(cons["float32"], "float32", wc)
+            precision = "float32" if float32 else precision
+        if "precision" in cons:
+            given = cons["precision"]
+            if given not in SCENE_PRECISIONS:
+                raise wc.bad(
+                    "precision",
+                    f"must be one of {', '.join(SCENE_PRECISIONS)}, got {_show(given)}",
+                )
+            if float32 and given != "float32":
+                raise wc.bad("precision", f"is {given!r} but float32 = true says float32")
+            precision = given
         if "families" in cons:
             families = _family_names(cons["families"], wc)
 
@@ -318,7 +332,8 @@ def parse_scene(d: Mapping[str, Any], source: str) -> dict[str, Any]:
         tolerance=tolerance,
         error_floor=error_floor,
         reach_zero_at_range=reach_zero,
-        float32=float32,
+        float32=precision == "float32",
+        precision=precision,
         families=families,
         name=name,
         description=description,

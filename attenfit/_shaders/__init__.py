@@ -1,9 +1,19 @@
-"""Stage 4, shaders: a family as a scalar program read from its jaxpr (`_trace`), what that
-program costs (`_cost`), and the program printed as GLSL, HLSL, WGSL or C (`_export`).
+"""Stage 4, shaders: each family's shader form (`_forms`, in the expression language of `_ir`)
+and its stable form (a scalar program read from its jaxpr, `_trace`), printed as GLSL, HLSL,
+WGSL, C or CUDA (`_print`, `_stable`, `_export`); what they cost (`_cost`: the traced-operation
+estimate; `_compile`: real compilers) and how precise they are in float16 and float32
+(`_precision`).
 
 Imports the curves stage (and the fitting stage's results, by duck typing) and nothing above.
 """
 
+from ._compile import Compiled as Compiled
+from ._compile import CompiledCost as CompiledCost
+from ._compile import CompilerError as CompilerError
+from ._compile import compiled_cost as compiled_cost
+from ._compile import compilers as compilers
+from ._compile import cost_method as cost_method
+from ._compile import structural_cost as structural_cost
 from ._cost import CATEGORIES as CATEGORIES
 from ._cost import SHADER_WEIGHTS as SHADER_WEIGHTS
 from ._cost import Cost as Cost
@@ -15,9 +25,20 @@ from ._cost import family_cost as family_cost
 from ._cost import measure_throughput as measure_throughput
 from ._cost import pareto_front as pareto_front
 from ._cost import shader_cost as shader_cost
+from ._export import FORMS as FORMS
 from ._export import LANGUAGES as LANGUAGES
 from ._export import export as export
-from ._export import float32_literal as float32_literal
-from ._export import load_model as load_model
+from ._export import function_source as function_source
+from ._export import scalar_params as scalar_params
+from ._forms import SHADER_FORMS as SHADER_FORMS
+from ._forms import shader_form as shader_form
+from ._ir import ShaderForm as ShaderForm
+from ._ir import evaluate_form as evaluate_form
+from ._model import load_model as load_model
+from ._precision import PRECISIONS as PRECISIONS
+from ._precision import Precision as Precision
+from ._precision import precision as precision
+from ._precision import shade_in as shade_in
 from ._program import Program as Program
+from ._text import float32_literal as float32_literal
 from ._trace import trace as trace
