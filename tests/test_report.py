@@ -143,7 +143,7 @@ def test_tables_and_json_are_complete(report):
 def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys):
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "yuksel_adhoc", "inverse_square"]
-    argv += ["--emitters", "disk", "--no-fit", "--sweep-n", "24", "--plane-px", "12"]
+    argv += ["--emitters", "disk", "--no-fit", "--sweep-n", "24", "--plane-px", "12", "--svg"]
     assert main(argv) == 0
     err = capsys.readouterr().err
     # stderr is not a terminal here: only the summary line

@@ -45,6 +45,7 @@ def add_parser(sub, parents: list) -> None:
     p.add_argument(
         "--plane-px", type=int, default=96, metavar="N", help="pixels per plane side (default 96)"
     )
+    p.add_argument("--svg", action="store_true", help="also write every figure as SVG")
     p.add_argument(
         "--force", action="store_true", help="replace an existing non-empty output folder"
     )
@@ -78,7 +79,7 @@ def _run_report(args: argparse.Namespace) -> int:
         progress=_progress.stage,
     )
     _progress.stage("writing figures and tables")
-    out = rep.write(args.out, force=args.force, progress=_progress.stage)
+    out = rep.write(args.out, force=args.force, svg=args.svg, progress=_progress.stage)
     failed = sum(1 for r in rep.results if r["status"] != "ok")
     _progress.done(f"wrote {out}/report.md ({len(rep.results)} results, {failed} marked failed)")
     return EXIT_OK

@@ -5,7 +5,7 @@
 from a documented threshold, see `published_params`) and **fitted** (least squares with
 `attenfit.fit_many`), and returns a `Report`; `Report.write(folder)` writes `report.md`,
 `report.json` (every number), `results.csv` (one row per family x configuration x mode) and
-the figures (PNG and SVG) into a folder that appears only when complete.
+the figures (PNG, and SVG when asked) into a folder that appears only when complete.
 """
 
 from __future__ import annotations

@@ -230,7 +230,9 @@ def figure_jobs(report, *, published_only: bool = False):
     return jobs
 
 
-def prerender(report, *, dpi: int = 100, svg: bool = True) -> dict[str, tuple[bytes, bytes | None]]:
+def prerender(
+    report, *, dpi: int = 100, svg: bool = False
+) -> dict[str, tuple[bytes, bytes | None]]:
     """Draw the figures that need only the published results into memory: key -> (PNG, SVG).
 
     `build_report` runs this in a thread while the fits compile (XLA releases the GIL), so the
@@ -262,7 +264,7 @@ def draw_all(
     folder: Path,
     *,
     dpi: int = 100,
-    svg: bool = True,
+    svg: bool = False,
     progress=None,
     prerendered: dict[str, tuple[bytes, bytes | None]] | None = None,
 ) -> dict[str, Path]:

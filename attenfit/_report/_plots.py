@@ -32,7 +32,6 @@ STYLE: Mapping[str, Any] = {
     "lines.linewidth": 1.4,
     "figure.dpi": 100,
     "savefig.dpi": 110,
-    "savefig.bbox": "tight",
     "svg.fonttype": "none",
     "image.interpolation": "nearest",
 }

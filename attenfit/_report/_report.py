@@ -454,7 +454,7 @@ class Report:
         *,
         force: bool = False,
         dpi: int = 100,
-        svg: bool = True,
+        svg: bool = False,
         progress: Callable[[str], None] | None = None,
     ) -> Path:
         """Write the report into `folder` (created; replaced only with `force`).
@@ -495,7 +495,7 @@ class Report:
         folder: str | Path,
         *,
         dpi: int = 100,
-        svg: bool = True,
+        svg: bool = False,
         progress: Callable[[str], None] | None = None,
     ) -> dict[str, Path]:
         """Draw every figure into `folder` (PNG, and SVG when `svg`); return key -> PNG path."""
