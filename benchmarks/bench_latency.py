@@ -41,10 +41,14 @@ def _run(argv: list[str], cache: Path, tmp: Path) -> float:
     args = [a.replace("{tmp}", str(tmp)) for a in argv]
     start = time.perf_counter()
     with open(tmp / "out.txt", "w") as out, open(tmp / "err.txt", "w") as err:
-        proc = subprocess.run([sys.executable, "-m", "attenfit", *args], env=env, stdout=out, stderr=err)
+        proc = subprocess.run(
+            [sys.executable, "-m", "attenfit", *args], env=env, stdout=out, stderr=err
+        )
     took = time.perf_counter() - start
     if proc.returncode != 0:
-        raise SystemExit(f"attenfit {' '.join(args)} exited {proc.returncode}: {(tmp / 'err.txt').read_text()[-500:]}")
+        raise SystemExit(
+            f"attenfit {' '.join(args)} exited {proc.returncode}: {(tmp / 'err.txt').read_text()[-500:]}"
+        )
     return took
 
 
