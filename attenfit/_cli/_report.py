@@ -53,6 +53,7 @@ def add_parser(sub, parents: list) -> None:
 
 
 def _run_report(args: argparse.Namespace) -> int:
+    import re
     from pathlib import Path
 
     from .._atomic import check_output_path
@@ -64,7 +65,8 @@ def _run_report(args: argparse.Namespace) -> int:
     enable_persistent_cache()  # a second run loads the compiled solves instead of compiling
     datasets = {}
     for path in args.mitsuba:
-        name = Path(path).stem
+        # the file's stem names the configuration: letters, digits and '_.+-' (it names files)
+        name = re.sub(r"[^A-Za-z0-9_.+-]", "_", Path(path).stem).lstrip("_.+-")[:48] or "dataset"
         datasets[name if name not in datasets else f"{name}-{len(datasets) + 1}"] = Dataset.load(
             path
         )

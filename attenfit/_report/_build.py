@@ -11,12 +11,14 @@ the figures (PNG, and SVG when asked) into a folder that appears only when compl
 from __future__ import annotations
 
 import datetime as _dt
+import re
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from .. import _budget
 from .._curves import Family, get_family, list_families
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._truth import emitter_from_dict
@@ -27,6 +29,7 @@ from ._configs import (
     PUBLISHED_CUTOFF,
     SWEEP_N,
     Config,
+    check_dataset,
     dataset_config,
     default_emitters,
     emitter_config,
@@ -135,13 +138,25 @@ def build_report(
         for i, ds in enumerate(datasets or []):
             prov = dict(getattr(ds, "provenance", {}) or {})
             ds_items.append((f"{prov.get('generator', 'dataset')}-{i + 1}", ds))
+    for name, ds in ds_items:
+        _check_name(name)
+        check_dataset(name, ds)
     if int(sweep_n) < 8 or int(plane_px) < 8:
         raise BadValueError(f"sweep_n and plane_px must be >= 8, got {sweep_n} and {plane_px}")
+    n_configs = len(_resolve_emitters(emitters)) + len(ds_items)
+    _budget.check(
+        BYTES_BASE + n_configs * BYTES_PER_SAMPLE * (int(plane_px) ** 2 + int(sweep_n)),
+        f"a report of {n_configs} configurations with {plane_px} x {plane_px} planes and "
+        f"{sweep_n}-distance sweeps",
+        "a smaller plane_px (--plane-px) or sweep_n (--sweep-n)",
+    )
     timings: dict[str, float] = {}
     configs: list[Config] = []
     with jax.enable_x64(True):
         ems = _as_float64(_resolve_emitters(emitters))
         t = time.perf_counter()
+        for name in ems:
+            _check_name(name)
         for name, em in ems.items():
             say(f"truth: {name} ({sweep_n} distances, {plane_px} x {plane_px} plane)")
             configs.append(emitter_config(name, em, int(sweep_n), int(plane_px)))
@@ -370,3 +385,20 @@ def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
             f"loss {float(info.get('loss', float('nan'))):.2g}"
         )
     return str(info.get("message", ""))
+
+
+#: Peak memory of a report: a baseline and so much per sample (pixel or distance) of each
+#: configuration, measured by `python -m benchmarks memory` (about 2 kB) and rounded up.
+BYTES_BASE = 1 << 30
+BYTES_PER_SAMPLE = 4096
+
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")
+
+
+def _check_name(name: object) -> None:
+    """A configuration's name heads tables and figures and names files: plain characters only."""
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise BadValueError(
+            f"configuration name {name!r} must be 1-64 letters, digits or '_.+-' "
+            "(it names the report's files), starting with a letter or digit"
+        )

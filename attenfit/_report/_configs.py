@@ -233,6 +233,17 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
     return Config(name, kind, emitter, r, sweep, plane, "attenfit.irradiance (exact)")
 
 
+def check_dataset(name: str, ds: Any) -> None:
+    """Refuse, before any work, a dataset the report cannot judge a curve on."""
+    E = np.asarray(ds.E, np.float64).ravel()
+    w = np.asarray(ds.weight(), np.float64).ravel() if len(E) else E
+    if not np.any((E > 0) & (w > 0)):
+        raise BadValueError(
+            f"dataset {name!r} has no receiver lit from the front with E > 0 "
+            f"({len(E)} receivers): there is nothing to judge a curve on"
+        )
+
+
 def dataset_config(name: str, ds: Any, sweep_n: int) -> Config:
     """A configuration from a Dataset: a plane image if its provenance has a 2-D shape."""
     emitter = ds.emitter

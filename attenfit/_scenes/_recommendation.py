@@ -344,7 +344,8 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
         ax.set_yscale("log")
         ax.set_xlabel("d / r (distance from the light's centre over its radius)")
         ax.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
-        ax.set_title(f"{rec.scene.name or rec.scene.source}: error at the scene's receivers")
+        name = str(rec.scene.name or rec.scene.source).replace("$", r"\$")  # a name, not mathtext
+        ax.set_title(f"{name}: error at the scene's receivers")
         ax.legend(fontsize=7, loc="best")
         fig.tight_layout()
     return fig, ax

@@ -21,6 +21,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from .. import _budget
 from .._atomic import atomic_write
 from .._budget import budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
@@ -119,6 +120,8 @@ class Dataset:
             stderr.setflags(write=False)
         if stderr.shape != (n,):
             raise BadValueError(f"stderr must have shape {(n,)} or be a scalar, got {stderr.shape}")
+        if np.any(E < 0):  # irradiance, and any estimate of it, is never negative
+            raise BadValueError(f"E must be >= 0 (an irradiance), got {E[E < 0].flat[0].item()!r}")
         if np.any(stderr < 0):
             raise BadValueError(f"stderr must be >= 0, got {stderr[stderr < 0].flat[0].item()!r}")
         if n and not np.all(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0):
@@ -254,6 +257,17 @@ def _count(name: str, n: Any) -> int:
     return int(n)
 
 
+#: Peak memory of a builder per receiver (points, normals, E, the irradiance's chunked
+#: intermediates), measured by `python -m benchmarks memory` (about 0.3 kB) and rounded up.
+BYTES_PER_RECEIVER = 1024
+
+
+def _receivers_within_budget(n: int) -> int:
+    """`n`, after refusing a receiver count whose arrays would exceed the memory budget."""
+    _budget.check(BYTES_PER_RECEIVER * n, f"{n:,} receivers", "fewer receivers (n)")
+    return n
+
+
 def _dtype(dtype: Any) -> np.dtype:
     try:
         dt = np.dtype(jax.dtypes.canonicalize_dtype(np.float64) if dtype is None else dtype)
@@ -362,7 +376,7 @@ def facing_sweep(
     radius for a sphere or capsule. `dtype` float32 or float64 (default: JAX's default float).
     """
     d_min, d_max = _positive("d_min", d_min), _positive("d_max", d_max)
-    n = _count("n", n)
+    n = _receivers_within_budget(_count("n", n))
     if d_max < d_min:
         raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
     solid = _solid_radius(emitter)
@@ -421,6 +435,7 @@ def plane_receivers(
     extent = _positive("extent", extent)
     ny, nx = (n, n) if not isinstance(n, tuple | list) else tuple(n)
     ny, nx = _count("n", ny), _count("n", nx)
+    _receivers_within_budget(ny * nx)
     dt = _dtype(dtype)
     up_v = _unit_np(up, "up")
     # grid axes: world x (or y, for an up close to x) made perpendicular to up; +x, +y for up = +z
@@ -493,7 +508,7 @@ def random_receivers(
     receivers are well represented next to unclipped and fully-below ones. Deterministic in
     `seed`. `d_min` must exceed the radius for a sphere or capsule.
     """
-    n = _count("n", n)
+    n = _receivers_within_budget(_count("n", n))
     d_min, d_max = _positive("d_min", d_min), _positive("d_max", d_max)
     if d_max < d_min:
         raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
