@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .. import _progress
+from .._errors import AttenfitError
 from ._common import EXIT_OK
 
 
@@ -39,6 +40,12 @@ def add_parser(sub, parents: list) -> None:
         help="Monte Carlo datasets (attenfit gen) to add as configurations",
     )
     p.add_argument("--no-fit", action="store_true", help="as published only, no fitted mode")
+    p.add_argument(
+        "--no-mitsuba",
+        action="store_true",
+        help="skip the Mitsuba witness (a ~10 s render of each light's floor and random "
+        "receivers, z-scores against the exact values)",
+    )
     p.add_argument(
         "--sweep-n", type=int, default=160, metavar="N", help="distances per sweep (default 160)"
     )
@@ -78,8 +85,36 @@ def _run_report(args: argparse.Namespace) -> int:
         figures_early=True,
         progress=_progress.stage,
     )
+    if not args.no_mitsuba:
+        rep.witness = _witness(rep)
     _progress.stage("writing figures and tables")
     out = rep.write(args.out, force=args.force, svg=args.svg, progress=_progress.stage)
     failed = sum(1 for r in rep.results if r["status"] != "ok")
     _progress.done(f"wrote {out}/report.md ({len(rep.results)} results, {failed} marked failed)")
     return EXIT_OK
+
+
+def _witness(rep):
+    """The Mitsuba witness of the report's lights (`data_gen.witness`), or None with a notice
+    when data_gen or Mitsuba is missing (the report is complete without it)."""
+    import sys
+    import time
+
+    from .._report._witness import witness_section
+
+    ems = {c.name: c.emitter for c in rep.configs if c.source.startswith("attenfit.irradiance")}
+    if not ems:
+        return None
+    try:  # like `attenfit gen`, the only places attenfit uses data_gen: imported here, lazily
+        from data_gen.variants import require_mitsuba
+        from data_gen.witness import render_witness
+
+        require_mitsuba()
+    except (ImportError, AttenfitError) as exc:
+        print(
+            f"attenfit report: no Mitsuba witness ({exc}); --no-mitsuba hides this", file=sys.stderr
+        )
+        return None
+    start = time.perf_counter()
+    sets = render_witness(ems, progress=_progress.stage)
+    return witness_section(sets, seconds=time.perf_counter() - start)
