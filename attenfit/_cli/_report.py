@@ -69,6 +69,11 @@ def _run_report(args: argparse.Namespace) -> int:
 
     check_output_path(args.out, force=args.force, folder=True)  # refuse before any work
     enable_persistent_cache()  # a second run loads the compiled solves instead of compiling
+    witness = None
+    if not args.no_mitsuba:
+        from .._report._build import _resolve_emitters
+
+        witness = _Witness(_resolve_emitters(args.emitters))
     datasets = {}
     for path in args.mitsuba:
         name = Path(path).stem
@@ -85,8 +90,8 @@ def _run_report(args: argparse.Namespace) -> int:
         figures_early=True,
         progress=_progress.stage,
     )
-    if not args.no_mitsuba:
-        rep.witness = _witness(rep)
+    if witness is not None:
+        rep.witness = witness.result()
     _progress.stage("writing figures and tables")
     out = rep.write(args.out, force=args.force, svg=args.svg, progress=_progress.stage)
     failed = sum(1 for r in rep.results if r["status"] != "ok")
@@ -94,27 +99,54 @@ def _run_report(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _witness(rep):
-    """The Mitsuba witness of the report's lights (`data_gen.witness`), or None with a notice
-    when data_gen or Mitsuba is missing (the report is complete without it)."""
-    import sys
-    import time
+class _Witness:
+    """The Mitsuba witness rendered in a background thread while the report builds.
 
-    from .._report._witness import witness_section
+    `data_gen.witness` (imported here, lazily, as `attenfit gen` does: attenfit's library
+    never imports data_gen) builds the floor and random receivers of each light, their exact
+    values and a Mitsuba render. The probe of the LLVM variant runs in a child process and
+    the kernels outside the GIL, so on two cores most of it hides behind the report's fits.
+    """
 
-    ems = {c.name: c.emitter for c in rep.configs if c.source.startswith("attenfit.irradiance")}
-    if not ems:
-        return None
-    try:  # like `attenfit gen`, the only places attenfit uses data_gen: imported here, lazily
-        from data_gen.variants import require_mitsuba
-        from data_gen.witness import render_witness
+    def __init__(self, emitters):
+        import threading
 
-        require_mitsuba()
-    except (ImportError, AttenfitError) as exc:
-        print(
-            f"attenfit report: no Mitsuba witness ({exc}); --no-mitsuba hides this", file=sys.stderr
-        )
-        return None
-    start = time.perf_counter()
-    sets = render_witness(ems, progress=_progress.stage)
-    return witness_section(sets, seconds=time.perf_counter() - start)
+        self.emitters, self.value, self.error, self.seconds = emitters, None, None, 0.0
+        self.thread = threading.Thread(target=self._run, name="mitsuba-witness", daemon=True)
+        self.thread.start()
+
+    def _run(self) -> None:
+        import time
+
+        import jax
+
+        start = time.perf_counter()
+        try:
+            from data_gen.variants import require_mitsuba
+            from data_gen.witness import render_witness
+
+            require_mitsuba()
+            with jax.enable_x64(True):  # thread-local, as in build_report
+                self.value = render_witness(self.emitters)
+        except BaseException as exc:  # handed to the main thread by result()
+            self.error = exc
+        self.seconds = time.perf_counter() - start
+
+    def result(self):
+        """The report's witness section, or None (with a notice) without data_gen or Mitsuba."""
+        import sys
+
+        from .._report._witness import witness_section
+
+        if self.thread.is_alive():
+            _progress.stage("waiting for the Mitsuba witness")
+        self.thread.join()
+        if isinstance(self.error, ImportError | AttenfitError):
+            print(
+                f"attenfit report: no Mitsuba witness ({self.error}); --no-mitsuba skips it",
+                file=sys.stderr,
+            )
+            return None
+        if self.error is not None:
+            raise self.error
+        return witness_section(self.value, seconds=self.seconds)
