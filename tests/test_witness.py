@@ -169,3 +169,68 @@ def test_standard_errors_are_calibrated(emitter, n, spp):
     assert 0.55 <= float(np.median(z)) <= 0.8, float(np.median(z))
     # ~250 draws: P(max |Z| > 4.5) = 250 * 6.8e-6 = 0.2% for calibrated Gaussian errors
     assert z.max() < 4.5, z.max()
+
+
+# ----------------------------------------------------------------------------- the report's section
+def _pair(z, se=0.01):
+    from attenfit._truth import Dataset
+
+    n = len(z)
+    pts = np.column_stack([np.linspace(1.0, 2.0, n), np.zeros(n), np.zeros(n)])
+    nrm = np.tile([-1.0, 0.0, 0.0], (n, 1))
+    em = af.SphereEmitter([0.0, 0.0, 0.0], 0.5)
+    E = np.linspace(0.1, 1.0, n)
+    exact = Dataset(em, pts, nrm, E, np.zeros(n), {})
+    rendered = Dataset(
+        em, pts, nrm, E + z * se, np.full(n, se), {"variant": "scalar_rgb", "spp": 64}
+    )
+    return exact, rendered
+
+
+def test_witness_section_numbers_markdown_and_figure():
+    from attenfit._report._witness import HALF_NORMAL_MEDIAN, witness_section
+
+    z1 = np.random.default_rng(0).normal(size=200)
+    z2 = np.array([0.5, -7.0, 1.0])  # one far beyond the histogram's edge
+    sec = witness_section([("sphere floor", *_pair(z1)), ("disk random", *_pair(z2))], seconds=2)
+    every = np.abs(np.concatenate([z1, z2]))
+    assert sec.data["n"] == 203
+    assert sec.data["median_abs_z"] == pytest.approx(np.median(every), rel=1e-9)
+    assert sec.data["max_abs_z"] == pytest.approx(7.0, rel=1e-9)
+    assert [s["n"] for s in sec.data["sets"]] == [200, 3]
+    assert HALF_NORMAL_MEDIAN == pytest.approx(0.6744897501960817, abs=1e-15)
+    md = sec.markdown("figures/witness_z.png")
+    assert "## Mitsuba witness" in md and "median |z| = " in md and "witness_z.png" in md
+    assert "| disk random | 3 | 1.00 | 7.00 |" in md
+    assert sec.png.startswith(b"\x89PNG")
+
+
+def test_witness_refuses_other_receivers_and_missing_errors():
+    from attenfit._report._witness import witness_z
+    from attenfit._truth import Dataset
+
+    exact, rendered = _pair(np.zeros(4))
+    other = Dataset(exact.emitter, exact.points[::-1], exact.normals, exact.E, exact.stderr, {})
+    with pytest.raises(af.BadValueError, match="same receivers"):
+        witness_z(other, rendered)
+    with pytest.raises(af.BadValueError, match="without a standard error"):
+        witness_z(
+            exact, Dataset(exact.emitter, exact.points, exact.normals, exact.E + 1, np.zeros(4), {})
+        )
+
+
+def test_report_includes_the_witness_by_default(tmp_path):
+    """`attenfit report` renders each light's floor and random receivers with Mitsuba."""
+    import json
+
+    from attenfit.cli import main
+
+    out = tmp_path / "rep"
+    argv = ["report", "--out", str(out), "--families", "inverse_square", "--emitters", "disk"]
+    assert main([*argv, "--no-fit", "--sweep-n", "16", "--plane-px", "16"]) == 0
+    md = (out / "report.md").read_text()
+    assert "## Mitsuba witness" in md and (out / "figures" / "witness_z.png").is_file()
+    w = json.loads((out / "report.json").read_text())["witness"]
+    assert [s["label"] for s in w["sets"]] == ["disk floor", "disk random"]
+    assert w["spp"] >= 1024 and w["n"] > 200
+    assert 0.45 <= w["median_abs_z"] <= 0.95 and w["max_abs_z"] < 5.0

@@ -69,17 +69,19 @@ def _run_report(args: argparse.Namespace) -> int:
 
     check_output_path(args.out, force=args.force, folder=True)  # refuse before any work
     enable_persistent_cache()  # a second run loads the compiled solves instead of compiling
-    witness = None
-    if not args.no_mitsuba:
-        from .._report._build import _resolve_emitters
-
-        witness = _Witness(_resolve_emitters(args.emitters))
     datasets = {}
     for path in args.mitsuba:
         name = Path(path).stem
         datasets[name if name not in datasets else f"{name}-{len(datasets) + 1}"] = Dataset.load(
             path
         )
+    witness = None
+    if not args.no_mitsuba:  # once the options are known to be good (no thread left behind)
+        from .._report._build import _resolve_emitters, _resolve_families
+
+        _resolve_families(args.families)
+        if min(args.sweep_n, args.plane_px) >= 8:
+            witness = _Witness(_resolve_emitters(args.emitters))
     rep = build_report(
         families=args.families,
         emitters=args.emitters,
