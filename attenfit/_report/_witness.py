@@ -172,7 +172,9 @@ def _histogram_png(zs: list[tuple[str, np.ndarray]], data: dict[str, Any], dpi: 
     ax.set_ylabel("receivers")
     ax.set_title(
         f"Mitsuba witness: median |z| = {data['median_abs_z']:.2f} "
-        f"(calibrated: {HALF_NORMAL_MEDIAN:.2f}), {data['n']} receivers, {data['spp']} spp"
+        f"(calibrated: {HALF_NORMAL_MEDIAN:.2f})\n{data['n']} receivers, "
+        f"{data['spp']} samples each, {data['variant']}",
+        fontsize="medium",
     )
     ax.legend(loc="upper left", fontsize="small", frameon=False)
     buf = io.BytesIO()
