@@ -258,6 +258,12 @@ def _values_llvm(mi, scene, p, n, u, clip, strategy: str, origins, spheres) -> n
     value = dr.select(active, value, 0.0)
     if clip is not None:
         value = dr.select(dr.dot(ds.p - q, axis) > 0.0, 0.0, value)
+    if len(spheres) == 1 and strategy != "mis":  # the usual case, inside the kernel
+        centre, r = spheres[0]
+        D = dr.norm(ref.p - mi.Point3f(*centre))
+        s2 = dr.minimum(dr.square(r / D), 1.0)
+        omega = 2.0 * dr.pi * s2 / (1.0 + dr.sqrt(1.0 - s2))  # no cancellation (float32 is
+        return np.asarray((value * omega * ds.pdf).numpy(), dtype=np.float64)  # fine here)
     if spheres and strategy != "mis":
         out = np.asarray(value.numpy(), dtype=np.float64)
         lit = out > 0.0
