@@ -144,6 +144,7 @@ def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys)
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "yuksel_adhoc", "inverse_square"]
     argv += ["--emitters", "disk", "--no-fit", "--sweep-n", "24", "--plane-px", "12", "--svg"]
+    argv += ["--no-mitsuba"]  # the witness has its own test (tests/test_witness.py)
     assert main(argv) == 0
     err = capsys.readouterr().err
     # stderr is not a terminal here: only the summary line
@@ -251,6 +252,7 @@ def test_datasets_become_configurations(tmp_path, capsys, monkeypatch):
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "inverse_square", "--emitters", "disk"]
     argv += ["--no-fit", "--sweep-n", "24", "--plane-px", "12", "--mitsuba", str(path)]
+    argv += ["--no-mitsuba"]
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # stage lines, as on a terminal
     assert main(argv) == 0
     assert "] dataset: plane" in capsys.readouterr().err

@@ -58,6 +58,8 @@ class Report:
     _prerendered: dict[str, tuple[bytes, bytes | None]] = dataclasses.field(
         default_factory=dict, repr=False
     )
+    #: The Mitsuba witness (`_witness.witness_section`), set by `attenfit report`; or None.
+    witness: Any = None
 
     # ------------------------------------------------------------------ access
     def result(self, family: str, config: str, mode: str = "published") -> dict[str, Any]:
@@ -110,6 +112,7 @@ class Report:
                 "findings": self.findings,
                 "costs": self.costs,
                 "results": self.results,
+                "witness": None if self.witness is None else self.witness.data,
             }
         )
 
@@ -360,6 +363,8 @@ class Report:
             out += ["## Cost against error", "", self.cost_markdown(), ""]
         if "cost_vs_error" in figures:
             out += [f"![cost against error]({figures['cost_vs_error']})", ""]
+        if self.witness is not None:
+            out += [self.witness.markdown(figures.get("witness_z"))]
         out += [
             "## How the numbers were made",
             "",
@@ -467,6 +472,9 @@ class Report:
         check_output_path(folder, force=force, folder=True)
         with atomic_dir(folder, force=force) as tmp:
             figs = self.write_figures(tmp / "figures", dpi=dpi, svg=svg, progress=progress)
+            if self.witness is not None:
+                figs["witness_z"] = tmp / "figures" / "witness_z.png"
+                figs["witness_z"].write_bytes(self.witness.png)
             if progress is not None:
                 progress("tables: report.md, report.json, results.csv")
             rel = {k: f"figures/{Path(v).name}" for k, v in figs.items()}
