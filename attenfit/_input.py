@@ -24,7 +24,16 @@ import numpy as np
 
 from ._errors import DataFileError
 
-__all__ = ["LIMITS", "MAX_DEPTH", "load_json", "load_toml", "read_bytes", "read_npz", "read_text"]
+__all__ = [
+    "LIMITS",
+    "MAX_DEPTH",
+    "check_file",
+    "load_json",
+    "load_toml",
+    "read_bytes",
+    "read_npz",
+    "read_text",
+]
 
 #: Size limits per kind of input (bytes). A real scene file is a few kB (a list of 4,096
 #: receiver points, the most a scene takes, is about 200 kB); a fit file is a few kB a fit.
@@ -33,6 +42,8 @@ LIMITS = {
     "fits": 64 << 20,
     "json": 64 << 20,
     "source": 1 << 20,
+    # USD and glTF scenes with their meshes (and a glTF's .bin buffers), per file
+    "mesh_scene": 256 << 20,
 }
 #: The deepest nesting of arrays and tables any attenfit input has is 4; 32 is generous.
 MAX_DEPTH = 32
@@ -163,6 +174,21 @@ def _open_regular(path: Path, what: str) -> int:
         kind = "a folder" if stat.S_ISDIR(st.st_mode) else "a pipe, device or socket"
         raise DataFileError(f"{what} is not a regular file ({kind})")
     return fd
+
+
+def check_file(path: str | os.PathLike, what: str, limit: int) -> int:
+    """The size of the regular file `path`, checked as `read_bytes` checks it (missing,
+    special or over `limit`: `DataFileError`), for a file a library then opens by name."""
+    fd = _open_regular(Path(path), what)
+    try:
+        size = os.fstat(fd).st_size
+    finally:
+        os.close(fd)
+    if size > limit:
+        raise DataFileError(
+            f"{what} is {_mib(size)}, over the {_mib(limit)} an input of its kind may be"
+        )
+    return size
 
 
 def read_npz(
