@@ -70,6 +70,7 @@ class ImportedScene:
     path: Path
     format: str  # "usd" | "gltf"
     names: tuple[str, ...]
+    refs: tuple[str | int, ...]  # USD prim path; glTF light index (for a write-back)
     file_kinds: tuple[str, ...]
     published_ranges: tuple[float | None, ...]
     samples: int
@@ -218,6 +219,7 @@ def load_mesh_scene(
         path=path,
         format="usd" if suffix in USD_SUFFIXES else "gltf",
         names=tuple(x.name for x in lights),
+        refs=tuple(x.ref for x in lights),
         file_kinds=tuple(x.kind for x in lights),
         published_ranges=tuple(x.published_range for x in lights),
         samples=n,

@@ -238,7 +238,7 @@ def _light(d: dict[str, Any], j, node, m, label, radius_for, strict, notice) -> 
             direction=tuple(float(x) for x in axis / np.linalg.norm(axis)),
             profile="frostbite",
         )
-    return UsdLight(lname, SceneLight(**kw), kind, kw["range"])
+    return UsdLight(lname, SceneLight(**kw), kind, kw["range"], ref=j)
 
 
 def _meshes(gltf, buffers, mi: int, node: str, m, label, notice) -> list[Mesh]:

@@ -52,9 +52,9 @@ _UNSUPPORTED = ("RectLight", "DomeLight", "CylinderLight", "DistantLight", "Geom
 
 
 def _pxr():
-    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
+    from pxr import Usd, UsdGeom, UsdLux
 
-    return Gf, Sdf, Usd, UsdGeom, UsdLux
+    return Usd, UsdGeom, UsdLux
 
 
 def _matrix(xf) -> np.ndarray:
@@ -77,11 +77,19 @@ def _get(attr, default: Any) -> Any:
 class UsdLight:
     """A light read from a file: the `SceneLight` and where it came from."""
 
-    def __init__(self, name: str, light: SceneLight, kind: str, published_range: float | None):
+    def __init__(
+        self,
+        name: str,
+        light: SceneLight,
+        kind: str,
+        published_range: float | None,
+        ref: str | int | None = None,
+    ):
         self.name = name
         self.light = light
         self.kind = kind  # the file's type: SphereLight, DiskLight, point, spot
         self.published_range = published_range
+        self.ref = name if ref is None else ref  # USD prim path; glTF light index
 
 
 def read_usd(
@@ -97,7 +105,7 @@ def read_usd(
     `radius_for(name)` gives a radius from the options for a light that has none
     (`treatAsPoint`); `notice` receives one line per skipped prim.
     """
-    Gf, Sdf, Usd, UsdGeom, UsdLux = _pxr()
+    Usd, UsdGeom, UsdLux = _pxr()
     path = Path(path)
     check_file(path, f"scene file {label!r}", LIMITS["mesh_scene"])
     try:
