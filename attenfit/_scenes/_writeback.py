@@ -105,7 +105,7 @@ def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -
         prim = stage.GetPrimAtPath(str(imported.refs[c.light]))
         ans = _answer(c, engine)
 
-        def put(name: str, value: Any) -> None:
+        def put(name: str, value: Any, prim=prim) -> None:
             if isinstance(value, bool):
                 prim.CreateAttribute(name, Sdf.ValueTypeNames.Bool, custom=True).Set(value)
             elif isinstance(value, int | float):
