@@ -292,9 +292,12 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         "",
         f"Tolerance {pct(imported.scene.tolerance)}, {imported.scene.precision}"
         + (f", visibility threshold {imported.threshold:g}" if imported.threshold else "")
-        + f"; {imported.samples} receivers sampled per light.",
+        + f"; {imported.samples} receivers sampled per light. *Error, far range*: the "
+        "family's fit with its range 10x the farthest receiver; *checked error*: the final "
+        "curve (its parameters and range) against the exact irradiance at the light's "
+        "receivers (those above the threshold, with one).",
         "",
-        "| light | kind | receivers | family | params | fit error | checked error | range | volume saved |",
+        "| light | kind | receivers | family | params | error, far range | checked error | range | volume saved |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for c in choices:
@@ -306,8 +309,12 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
             R = c.range.get("range")
             rng = "none found" if R is None else f"{R:.4g} m"
             if "volume_saved" in c.range and R is not None:
-                ref = c.range["reference_range"]
-                saved = f"{pct(c.range['volume_saved'])} vs {ref:g} m"
+                ref, v = c.range["reference_range"], c.range["volume_saved"]
+                saved = (
+                    f"{pct(v)} of {ref:g} m's"
+                    if v >= 0
+                    else f"none: {1 - v:.3g} x the volume of {ref:g} m"
+                )
         fam = c.family if c.status == "pass" else f"{c.family} (closest; not within tolerance)"
         lines.append(
             f"| {c.name} | {c.file_kind} | {c.receivers} | {fam} | {params} | {pct(c.error)} "
