@@ -13,7 +13,7 @@ Side file keys (`SIDE_KEYS`; every one optional, an option given directly wins):
     strict = false
     seed = 0
     error_floor = 0.0
-    [lights."Lamp"]         # per light, by its name (glTF light or node name, USD prim path)
+    [lights."Lamp"]         # per light, by name: glTF light or node name, USD prim path or name
     radius = 0.1
 """
 
@@ -102,6 +102,10 @@ def _side(path: str | os.PathLike | None) -> dict[str, Any]:
     return d
 
 
+def _base(name: str) -> str:
+    return name.rsplit("/", 1)[-1]
+
+
 def _positive(v: Any, where: str) -> float:
     if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v <= 0:
         raise BadValueError(f"{where}: must be a positive number, got {v!r}")
@@ -164,9 +168,10 @@ def load_mesh_scene(
     used: set[str] = set()
 
     def radius_for(name: str) -> float | None:
-        if name in per_light and "radius" in per_light[name]:
-            used.add(name)
-            return float(per_light[name]["radius"])
+        for key in (name, _base(name)):  # a USD prim's path, or its name
+            if key in per_light and "radius" in per_light[key]:
+                used.add(key)
+                return float(per_light[key]["radius"])
         return r_all
 
     notices: list[str] = []
@@ -180,7 +185,7 @@ def load_mesh_scene(
     if suffix not in (*USD_SUFFIXES, *GLTF_SUFFIXES):
         raise BadValueError(f"{label}: not a USD (.usd, .usda, .usdc) or glTF (.gltf, .glb) file")
     lights, meshes = reader(path, label, radius_for=radius_for, strict=strict_, notice=note)
-    unknown = set(per_light) - used - {x.name for x in lights}
+    unknown = set(per_light) - used - {x.name for x in lights} - {_base(x.name) for x in lights}
     if unknown:
         raise UnknownNameError(
             f"{sl}: lights.{sorted(unknown)[0]!r}: no light of {label} has that name; "
