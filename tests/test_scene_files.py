@@ -410,3 +410,24 @@ def test_file_options_refused_for_toml(capsys):
     code, _, err = _run(capsys, EXAMPLE / "room.toml", "--radius", 0.1)
     assert code == 2
     assert "--radius applies to USD and glTF scenes" in err
+
+
+def test_engine_restricts_a_toml_scene(capsys):
+    code, text, _ = _run(capsys, EXAMPLE / "room.toml", "--engine", "unity", "--json")
+    assert code == 0
+    rec = json.loads(text)
+    assert [c["family"] for c in rec["candidates"]] == ["frostbite_window"]
+    # Unity URP clamps d^2 at HALF_MIN = 2^-14: r_min = 2^-7 m, fixed, not fitted
+    assert all(p["r_min"] == 2.0**-7 for p in rec["candidates"][0]["params"])
+
+
+def test_side_file_names_must_be_lights(tmp_path):
+    lights = [{"type": "point", "name": "bulb", "intensity": 10.0}]
+    path = _gltf(tmp_path, lights, [_light_node("bulbNode", 0, translation=[0.0, 0.0, 1.0])])
+    side = tmp_path / "side.toml"
+    side.write_text('radius = 0.1\n[lights."blub"]\nradius = 0.2\n')
+    with pytest.raises(Exception) as exc:
+        load_mesh_scene(path, side=side)
+    assert str(exc.value) == (
+        "side.toml: lights.'blub': no light of scene.gltf has that name; its lights: bulb"
+    )
