@@ -26,10 +26,10 @@ from attenfit._scenes._files import load_mesh_scene  # noqa: E402
 
 ROOM = Path(__file__).resolve().parent.parent / "examples" / "scenes" / "blender" / "room.usda"
 SAMPLES = 6667
-REPEATS = 3
+REPEATS = 2
 CONFIGS = {
     "every family": {},
-    "godot + range trade": {"engine": "godot", "threshold": 1.0},
+    "godot + range trade": {"engine": "godot", "threshold": 0.1},
     "every family, float32": {"precision": "float32"},
 }
 

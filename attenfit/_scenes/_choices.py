@@ -310,11 +310,12 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
             rng = "none found" if R is None else f"{R:.4g} m"
             if "volume_saved" in c.range and R is not None:
                 ref, v = c.range["reference_range"], c.range["volume_saved"]
-                saved = (
-                    f"{pct(v)} of {ref:g} m's"
-                    if v >= 0
-                    else f"none: {1 - v:.3g} x the volume of {ref:g} m"
-                )
+                if not math.isfinite(ref):
+                    saved = "all (no range: infinite)"
+                elif v >= 0:
+                    saved = f"{pct(v)} of {ref:g} m's"
+                else:
+                    saved = f"none: {1 - v:.3g} x the volume of {ref:g} m"
         fam = c.family if c.status == "pass" else f"{c.family} (closest; not within tolerance)"
         lines.append(
             f"| {c.name} | {c.file_kind} | {c.receivers} | {fam} | {params} | {pct(c.error)} "

@@ -25,6 +25,10 @@ direction, a disk's along its axis). Colour and colour temperature are left out:
 the truth and every curve alike (only `--threshold` compares absolute values, in the file's
 intensity units per m^2).
 
+Prims: the stage's default traversal with instance proxies (instanced meshes count), less
+invisible prims and `guide` or `proxy` purposes; a mesh is sampled as its control cage
+(Blender writes `subdivisionScheme = "none"`).
+
 Transforms: the world transform of each prim (`UsdGeom.Xformable.
 ComputeLocalToWorldTransform`) times the stage's `metersPerUnit`; a light whose transform
 scales non-uniformly (its radius would not be a radius) is refused.
@@ -121,11 +125,14 @@ def read_usd(
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
     lights: list[UsdLight] = []
     meshes: list[Mesh] = []
-    for prim in stage.Traverse():
+    for prim in stage.Traverse(Usd.TraverseInstanceProxies()):
         name = str(prim.GetPath())
         type_name = prim.GetTypeName()
         img = UsdGeom.Imageable(prim)
-        if img and img.ComputeVisibility() == UsdGeom.Tokens.invisible:
+        if img and (
+            img.ComputeVisibility() == UsdGeom.Tokens.invisible
+            or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+        ):
             continue
         if type_name in _UNSUPPORTED:
             msg = f"{label}: {type_name} {name}: not modelled (attenfit takes sphere, disk and spot lights)"
