@@ -35,7 +35,7 @@ from ._recommendation import Candidate, Recommendation, pct
 
 __all__ = ["LightChoice", "light_choices", "range_trade"]
 
-_GRID, _FINE, _SPAN = 24, 12, 16.0
+_GRID, _FINE, _SPAN = 24, 12, 16.0  # multiples of the solve's batch (4 lights)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -114,19 +114,26 @@ def _subset(x: LightData, keep: np.ndarray, R: float | None) -> LightData:
     )
 
 
-def _fit_at(cls, sub: LightData, ranges: Sequence[float], pins, precision, g):
-    """The family refitted to `sub` with its range pinned at each of `ranges`: (models, errors)."""
-    datas = [dataclasses.replace(sub, range=float(R)) for R in ranges]
-    knots = tuple(float(k) for k in np.geomspace(sub.d.min(), sub.d.max() * 1.001, 6))
-    plans = [fit_plan(cls, d, float(sub.d.max()), knots) for d in datas]
+def _fit_at(cls, x: LightData, vis, ranges: Sequence[float], pins, precision, g, chunk: int):
+    """The family refitted to the receivers `vis` of `x` with its range pinned at each of
+    `ranges`: (models, errors over `vis`). The other receivers weigh 0 (an infinite
+    denominator), so the solve has the shape of the recommendation's (`chunk` lights of the
+    same receiver count) and reuses its compiled form."""
+    hidden = dataclasses.replace(x, denom=np.where(vis, x.denom, np.inf))
+    datas = [dataclasses.replace(hidden, range=float(R)) for R in ranges]
+    d_vis = x.d[vis]
+    knots = tuple(float(k) for k in np.geomspace(d_vis.min(), d_vis.max() * 1.001, 6))
+    plans = [fit_plan(cls, d, float(x.d.max()), knots) for d in datas]
     if pins:
         plans = [({**v, **pins}, tuple(p for p in f if p not in pins)) for v, f in plans]
-    out = fit_group(cls, datas, plans)
-    models = [m for m, _, _ in out]
+    models = []
+    for k in range(0, len(datas), chunk):
+        models += [m for m, _, _ in fit_group(cls, datas[k : k + chunk], plans[k : k + chunk])]
     errs = []
     for m in models:
         try:
-            errs.append(float(judged_errors(sub, shade(m, sub.d, precision), g).max()))
+            f = shade(m, x.d[vis], precision)
+            errs.append(float(judged_errors(_subset(x, vis, None), f, g).max()))
         except AttenfitError:
             errs.append(math.inf)
     return models, errs
@@ -143,6 +150,7 @@ def range_trade(
     spot_model=None,
     pins: Mapping[str, float] | None = None,
     reference: float | None = None,
+    chunk: int = 4,
 ) -> tuple[dict[str, Any], Family | None]:
     """The smallest range of `family` for one light (module docstring): a summary dict and
     the refitted model at that range (None when no range within `16 d_vis` passes)."""
@@ -157,7 +165,7 @@ def range_trade(
     d_vis = float(sub.d.max())
     out["d_visible"] = d_vis
     grid = d_vis * np.geomspace(1.0 + 1e-6, _SPAN, _GRID)
-    models, errs = _fit_at(cls, sub, grid, pins, precision, g)
+    models, errs = _fit_at(cls, x, vis, grid, pins, precision, g, chunk)
     ok = [k for k, e in enumerate(errs) if e <= tolerance]
     if not ok:
         out.update(
@@ -170,7 +178,7 @@ def range_trade(
     best_R, best_m, best_e = float(grid[k]), models[k], errs[k]
     if k > 0:
         fine = np.geomspace(grid[k - 1], grid[k], _FINE + 2)[1:-1]
-        fm, fe = _fit_at(cls, sub, fine, pins, precision, g)
+        fm, fe = _fit_at(cls, x, vis, fine, pins, precision, g, chunk)
         for R, m, e in zip(fine, fm, fe, strict=True):
             if e <= tolerance:
                 best_R, best_m, best_e = float(R), m, e
@@ -249,6 +257,7 @@ def light_choices(
                 pick.family, x, light,
                 threshold=imported.threshold, tolerance=scene.tolerance,
                 precision=scene.precision, spot_model=spot_model, pins=pins, reference=ref,
+                chunk=max(2, 1 << max(0, (len(scene.lights) - 1).bit_length())),
             )  # fmt: skip
             if refit is not None:
                 final = refit
