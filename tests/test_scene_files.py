@@ -431,3 +431,45 @@ def test_side_file_names_must_be_lights(tmp_path):
     assert str(exc.value) == (
         "side.toml: lights.'blub': no light of scene.gltf has that name; its lights: bulb"
     )
+
+
+def test_engine_properties_in_the_engines_units():
+    from attenfit.scene import ENGINES
+
+    spot = SceneLight(kind="spot", radius=0.05, position=(0.0, 0.0, 3.0), umbra=30.0, penumbra=20.0)
+    angles = {"umbra": 30.0, "penumbra": 20.0}
+    # Unreal lengths are centimetres (UPointLightComponent AttenuationRadius, SourceRadius)
+    u = ENGINES["unreal"].properties("unreal_window", {"eps": 1e-4, "r_max": 7.5}, spot, angles)
+    assert (u["AttenuationRadius"], u["SourceRadius"]) == (750.0, 5.0)
+    assert u["bUseInverseSquaredFalloff"] is True
+    # Unity Light.spotAngle / innerSpotAngle are full cone angles in degrees
+    un = ENGINES["unity"].properties(
+        "frostbite_window", {"r_min": 0.0078125, "r_max": 4.0}, spot, angles
+    )
+    assert (un["range"], un["spotAngle"], un["innerSpotAngle"]) == (4.0, 60.0, 40.0)
+    # Godot: a spot's distance falloff is spot_attenuation / spot_range
+    g = ENGINES["godot"].properties("godot", {"a": 2.0, "r_max": 6.0}, spot, angles)
+    assert (g["spot_attenuation"], g["spot_range"], g["spot_angle"]) == (2.0, 6.0, 30.0)
+    # glTF cone angles are half-angles in radians
+    gl = ENGINES["gltf"].properties("gltf_range", {"range": 5.0}, spot, angles)
+    assert gl["outerConeAngle"] == pytest.approx(math.pi / 6)
+
+
+def test_gltf_directional_skipped_and_squashed_light_refused(tmp_path):
+    lights = [{"type": "directional", "name": "sun"}, {"type": "point", "name": "bulb"}]
+    nodes = [
+        _light_node("sunNode", 0),
+        _light_node("bulbNode", 1, translation=[0.0, 0.0, 1.0], scale=[1.0, 3.0, 1.0]),
+    ]
+    path = _gltf(tmp_path, lights, nodes)
+    notes: list[str] = []
+    with pytest.raises(BadValueError) as exc:
+        load_mesh_scene(path, radius=0.1, notice=notes.append)
+    assert notes == [
+        "scene.gltf: light 'sun' (node 'sunNode'): type 'directional' has no distance falloff "
+        "to fit; skipped"
+    ]
+    assert str(exc.value) == (
+        "scene.gltf: light 'bulb' (node 'bulbNode'): non-uniform scale (1.0, 3.0, 1.0) on a "
+        "light's node"
+    )
