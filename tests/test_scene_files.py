@@ -344,9 +344,11 @@ def test_gltf_range_trade_against_a_dense_scan_and_write_back(tmp_path, capsys):
     before = path.read_bytes()
     out = tmp_path / "out.gltf"
     argv = (path, "--engine", "gltf", "--radius", 0.05, "--samples", 512, "--threshold", 1.0,
-            "--tolerance", 0.05, "--json", "--write-back", out)  # fmt: skip
+            "--tolerance", 0.05, "--json", "--write-back", out, "--out", tmp_path / "ans")  # fmt: skip
     code, text, _ = _run(capsys, *argv)
     assert code == 0
+    assert json.loads((tmp_path / "ans" / "answer.json").read_text()) == json.loads(text)
+    assert (tmp_path / "ans" / "all-lights" / "attenfit_gltf_range.glsl").is_file()
     (ans,) = json.loads(text)["lights"]
     R = ans["range"]["range"]
     assert ans["family"] == "gltf_range" and ans["properties"] == {"range": R}

@@ -138,7 +138,7 @@ def _run_file(args: argparse.Namespace) -> int:
     wrote = []
     if args.out is not None:
         _progress.stage(f"writing {args.out}")
-        ans.recommendation.save(args.out, force=args.force)
+        ans.save(args.out, force=args.force)
         wrote.append(args.out)
     if args.write_back is not None:
         ans.write_back(args.write_back, force=args.force)

@@ -4,6 +4,7 @@ fit and judge every family the engine allows, choose per light, trade ranges).""
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 from pathlib import Path
 from typing import Any
@@ -66,6 +67,24 @@ class FileAnswer:
             "lights": [c.to_dict() for c in self.choices],
             "recommendation": rec,
         }
+
+    def save(self, out: str | os.PathLike, *, force: bool = False) -> Path:
+        """Write answer.md and answer.json (per light, then all lights together) into folder
+        `out`, and the all-lights recommendation's files (`Recommendation.save`: shaders,
+        errors.png) into `out/all-lights`; atomic, an existing non-empty folder is replaced
+        only with `force`."""
+        from .._atomic import atomic_dir
+
+        rec = self.recommendation
+        light = dataclasses.replace(rec, scene=dataclasses.replace(rec.scene, receivers=()))
+        out = Path(out)
+        with atomic_dir(out, force=force) as tmp:
+            (tmp / "answer.md").write_text(self.to_markdown(), encoding="utf-8")
+            (tmp / "answer.json").write_text(
+                json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
+            )
+            light.save(tmp / "all-lights")
+        return out
 
     def write_back(self, out: str | os.PathLike, *, force: bool = False) -> Path:
         """A copy of the scene file with the answers written in (`attenfit._scenes._writeback`)."""
