@@ -475,3 +475,32 @@ def test_gltf_directional_skipped_and_squashed_light_refused(tmp_path):
         "scene.gltf: light 'bulb' (node 'bulbNode'): non-uniform scale (1.0, 3.0, 1.0) on a "
         "light's node"
     )
+
+
+def test_the_blender_example_reads_as_blender_wrote_it():
+    """examples/scenes/blender: Blender 4.2's own USD and glTF exports of one room."""
+    room = EXAMPLE / "blender"
+    im = load_mesh_scene(room / "room.usda", samples=32, notice=_quiet)
+    assert im.names == ("/root/Rig/Bulb/Bulb", "/root/Spot/Spot", "/root/Panel/Panel")
+    bulb, spot, panel = im.scene.lights
+    # the bulb hangs 0.6 m under a rig at (-1, -0.5, 2) turned 30 deg about Z
+    assert bulb.position == pytest.approx((-1.0, -0.5, 2.6), abs=1e-6)
+    # Blender: 60 W point light -> 60 / (4 pi) W/sr; 150 W disk -> 150 / pi W/sr on axis
+    assert bulb.intensity == pytest.approx(60 / (4 * math.pi), rel=1e-6)
+    assert panel.intensity == pytest.approx(150 / math.pi, rel=1e-6)
+    # spot_size 60 deg, blend 0.3; tilted -25 deg about X
+    assert spot.umbra == pytest.approx(30.0)
+    c = math.cos(math.radians(30))
+    assert math.cos(math.radians(spot.penumbra)) == pytest.approx(c + 0.3 * (1 - c), rel=1e-6)
+    t = math.radians(-25)
+    assert spot.direction == pytest.approx((0.0, math.sin(t), -math.cos(t)), abs=1e-6)
+    assert im.notices == (
+        "room.usda: RectLight /root/Strip/Strip: not modelled (attenfit takes sphere, disk "
+        "and spot lights); skipped",
+    )
+    # the glTF export: Y up (Blender's (x, y, z) is glTF's (x, z, -y)), intensity in candela
+    gl = load_mesh_scene(room / "room.glb", side=room / "room.side.toml", samples=32)
+    gbulb, gspot = gl.scene.lights
+    assert gbulb.position == pytest.approx((-1.0, 2.6, 0.5), abs=1e-6)
+    assert gbulb.intensity == pytest.approx(60 * 683 / (4 * math.pi), rel=1e-6)
+    assert (gbulb.radius, gspot.radius) == (0.08, 0.05)
