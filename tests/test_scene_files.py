@@ -504,3 +504,17 @@ def test_the_blender_example_reads_as_blender_wrote_it():
     assert gbulb.position == pytest.approx((-1.0, 2.6, 0.5), abs=1e-6)
     assert gbulb.intensity == pytest.approx(60 * 683 / (4 * math.pi), rel=1e-6)
     assert (gbulb.radius, gspot.radius) == (0.08, 0.05)
+
+
+def test_files_that_are_not_scenes(tmp_path, capsys):
+    (tmp_path / "bad.usda").write_text("hello")
+    (tmp_path / "bad.glb").write_bytes(b"glTFxxxx")
+    code, _, err = _run(capsys, tmp_path / "bad.usda")
+    assert code == 2
+    assert err == (
+        "attenfit: error: bad.usda: not a USD file usd-core can open (Failed to open layer "
+        "@" + str(tmp_path / "bad.usda") + "@)\n"
+    )
+    code, _, err = _run(capsys, tmp_path / "bad.glb", "--radius", 0.1)
+    assert code == 2 and err.startswith("attenfit: error: bad.glb: not a glTF 2.0 file")
+    assert err.count("\n") == 1

@@ -115,10 +115,9 @@ def read_usd(
     try:
         stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
     except Exception as exc:  # pxr raises Tf.ErrorException with several lines
-        first = str(exc).strip().splitlines()
-        raise DataFileError(
-            f"{label}: not a USD file usd-core can open ({first[-1] if first else exc})"
-        ) from None
+        lines = str(exc).strip().splitlines()
+        why = (lines[-1] if lines else str(exc)).strip().rsplit(" : ", 1)[-1].strip("'")
+        raise DataFileError(f"{label}: not a USD file usd-core can open ({why})") from None
     if stage is None:
         raise DataFileError(f"{label}: not a USD file usd-core can open")
     mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
