@@ -5,7 +5,9 @@ triangle meshes in world space (glTF is in metres).
 as written (what a write-back needs); accessors are decoded here with numpy (glTF 2.0
 specification, section 3.6 "Binary Data Storage": component types, `byteStride`,
 `byteOffset`). Buffers come from the GLB's BIN chunk, a `data:` URI or a file beside the
-scene (read through `attenfit._input.read_bytes`, within its size limit).
+scene (read through `attenfit._input.read_bytes`, within its size limit). Normalized integer
+accessors (KHR_mesh_quantization) are scaled to [-1, 1]; Draco- or meshopt-compressed meshes
+are refused.
 
 Lights (KHR_lights_punctual README): `point` and `spot` (`spot.outerConeAngle` default
 pi/4, `innerConeAngle` default 0, radians), intensity in candela (the point-equivalent
@@ -109,7 +111,11 @@ def _accessor(gltf, buffers, k: int, label: str, where: str) -> np.ndarray:
     else:
         rows = np.lib.stride_tricks.as_strided(raw, (acc.count, item), (stride, 1))
         out = np.ascontiguousarray(rows).view(dtype).reshape(acc.count, width)
-    return out.astype(np.float64) if dtype.kind == "f" else out.astype(np.int64)
+    if dtype.kind == "f":
+        return out.astype(np.float64)
+    if acc.normalized:  # glTF 2.0 section 3.11 (KHR_mesh_quantization): c / (2^(bits-1) - 1) etc.
+        return np.maximum(out.astype(np.float64) / np.iinfo(dtype).max, -1.0)
+    return out.astype(np.int64)
 
 
 def _local(node) -> np.ndarray:
@@ -166,6 +172,12 @@ def read_gltf(
 ) -> tuple[list[UsdLight], list[Mesh]]:
     """The lights and meshes of the glTF file `path` (see the module docstring)."""
     gltf, buffers = load_gltf(path, label)
+    compressed = {"KHR_draco_mesh_compression", "EXT_meshopt_compression"}
+    needed = sorted(compressed & set(gltf.extensionsRequired or []))
+    if needed:
+        raise BadValueError(
+            f"{label}: meshes compressed with {needed[0]} are not read; export without it"
+        )
     ext = (gltf.extensions or {}).get(_EXT, {})
     defs = ext.get("lights", []) if isinstance(ext, dict) else []
     world = _world(gltf, label)
