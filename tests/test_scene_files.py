@@ -155,7 +155,7 @@ def test_usd_spot_from_shaping_as_blender_writes_it(tmp_path):
     im = load_mesh_scene(_usd(tmp_path, build), notice=_quiet, samples=256)
     (spot,) = im.scene.lights
     assert spot.kind == "spot" and spot.profile == "threejs" and spot.umbra == 40.0
-    # Cycles spot_attenuation: smoothstep from cos 40 to cos 40 + (1 - cos 40) * 0.25
+    # EEVEE spot_attenuation: smoothstep from cos 40 to cos 40 + (1 - cos 40) * 0.25
     c = math.cos(math.radians(40))
     assert math.cos(math.radians(spot.penumbra)) == pytest.approx(c + (1 - c) * 0.25)
     # -Z rotated 30 deg about X: (0, sin 30, -cos 30)

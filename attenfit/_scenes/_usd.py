@@ -12,7 +12,8 @@ Lights (UsdLux, https://openusd.org/release/api/usd_lux_page_front.html):
   sphere or disk): umbra = the cone angle (UsdLux: "angular limit off the primary axis"),
   and the penumbra from `shaping:cone:softness` as Blender writes and reads it
   (`io/usd/intern/usd_writer_light.cc` writes `spot_size / 2` as the angle and `spot_blend`
-  as the softness; Cycles `kernel/light/spot.h::spot_attenuation` ramps smoothstep over
+  as the softness; EEVEE `lamps_lib.glsl::spot_attenuation`, with `l_spot_size = cos(angle)`
+  and `l_spot_blend = (1 - cos(angle)) blend` from `eevee_lights.c`, ramps smoothstep over
   `cos` from `cos(angle)` to `cos(angle) + (1 - cos(angle)) * blend`): penumbra =
   `acos(cos u + (1 - cos u) softness)`, profile "threejs" (smoothstep in cos).
 * Rect, dome, cylinder, distant, geometry and portal lights are not modelled: skipped with a
