@@ -349,6 +349,7 @@ def test_gltf_range_trade_against_a_dense_scan_and_write_back(tmp_path, capsys):
     assert code == 0
     assert json.loads((tmp_path / "ans" / "answer.json").read_text()) == json.loads(text)
     assert (tmp_path / "ans" / "all-lights" / "attenfit_gltf_range.glsl").is_file()
+    assert (tmp_path / "ans" / "lights.png").stat().st_size > 1000
     (ans,) = json.loads(text)["lights"]
     R = ans["range"]["range"]
     assert ans["family"] == "gltf_range" and ans["properties"] == {"range": R}

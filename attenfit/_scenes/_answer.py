@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from .. import _progress
-from ._choices import LightChoice, choices_markdown, light_choices
+from ._choices import LightChoice, choices_markdown, light_choices, plot_choices
 from ._files import ImportedScene, load_mesh_scene
 from ._fits import light_data
 from ._recommend import recommend
@@ -69,8 +69,8 @@ class FileAnswer:
         }
 
     def save(self, out: str | os.PathLike, *, force: bool = False) -> Path:
-        """Write answer.md and answer.json (per light, then all lights together) into folder
-        `out`, and the all-lights recommendation's files (`Recommendation.save`: shaders,
+        """Write answer.md and answer.json (per light, then all lights together) and
+        lights.png (each light's checked error against distance) into folder `out`, and the all-lights recommendation's files (`Recommendation.save`: shaders,
         errors.png) into `out/all-lights`; atomic, an existing non-empty folder is replaced
         only with `force`."""
         from .._atomic import atomic_dir
@@ -84,6 +84,11 @@ class FileAnswer:
                 json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
             )
             light.save(tmp / "all-lights")
+            import matplotlib.pyplot as plt
+
+            fig, _ = plot_choices(self.imported, self.choices)
+            fig.savefig(tmp / "lights.png", dpi=110)
+            plt.close(fig)
         return out
 
     def write_back(self, out: str | os.PathLike, *, force: bool = False) -> Path:

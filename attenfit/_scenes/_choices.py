@@ -58,6 +58,10 @@ class LightChoice:
     properties: Mapping[str, Any]
     checked_error: float | None
     model: Family | None = dataclasses.field(default=None, repr=False, compare=False)
+    #: the checked receivers' distances (m) and errors, for the figure
+    checked: tuple[np.ndarray, np.ndarray] | None = dataclasses.field(
+        default=None, repr=False, compare=False
+    )
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -267,7 +271,8 @@ def light_choices(
             keep = x.E_true > imported.threshold
         sub = _subset(x, keep, None)
         f = shade(final, sub.d, scene.precision)
-        checked = float(judged_errors(sub, f, _g(spot_model, sub, scene.precision)).max())
+        errs = judged_errors(sub, f, _g(spot_model, sub, scene.precision))
+        checked = float(errs.max())
         params = _plain(final)
         props: dict[str, Any] = {}
         if engine is not None and pick.family in engine.families:
@@ -288,6 +293,7 @@ def light_choices(
                 properties=props,
                 checked_error=checked,
                 model=final,
+                checked=(sub.d, errs),
             )
         )
     return tuple(out)
@@ -354,3 +360,36 @@ def _num(v: Any) -> str:
     if isinstance(v, list):
         return "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
     return str(v)
+
+
+def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
+    """Each light's checked error against distance (its final curve at its receivers), the
+    tolerance dashed and each chosen range dotted; `(fig, ax)`, never shown."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    with matplotlib.rc_context({"font.size": 9, "axes.grid": True, "grid.alpha": 0.3}):
+        fig, ax = plt.subplots(figsize=(7, 4.2))
+        tol = imported.scene.tolerance
+        floor = tol * 1e-4
+        for k, c in enumerate(choices):
+            if c.checked is None:
+                continue
+            d, e = c.checked
+            o = np.argsort(d)
+            line = ax.plot(
+                d[o], np.maximum(e[o], floor), "os^vDP"[k % 6], ms=2.5, alpha=0.6,
+                label=f"{c.name}: {c.family} (max {pct(c.checked_error)})",
+            )[0]  # fmt: skip
+            R = c.range.get("range") if c.range else None
+            if R:
+                ax.axvline(R, color=line.get_color(), ls=":", lw=1)
+        ax.axhline(tol, color="k", ls="--", lw=1, label=f"tolerance {pct(tol)}")
+        ax.set_yscale("log")
+        ax.set_xlabel("distance from the light's centre (m); dotted: the chosen range")
+        ax.set_ylabel(f"checked error (< {floor:.0e} drawn at it)")
+        eng = f" for {imported.engine.name}" if imported.engine else ""
+        ax.set_title(f"{imported.path.name}{eng}: each light's final curve at its receivers")
+        ax.legend(fontsize=7, loc="best")
+        fig.tight_layout()
+    return fig, ax
