@@ -29,6 +29,7 @@ from ._errors import DataFileError
 __all__ = [
     "LIMITS",
     "MAX_DEPTH",
+    "check_file",
     "inputs",
     "load_json",
     "load_toml",
@@ -44,6 +45,8 @@ LIMITS = {
     "fits": 64 << 20,
     "json": 64 << 20,
     "source": 1 << 20,
+    # USD and glTF scenes with their meshes (and a glTF's .bin buffers), per file
+    "mesh_scene": 256 << 20,
 }
 #: The deepest nesting of arrays and tables any attenfit input has is 4; 32 is generous.
 MAX_DEPTH = 32
@@ -62,11 +65,7 @@ def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
     """
     fd = _open_regular(Path(path), what)
     try:
-        st = os.fstat(fd)
-        if st.st_size > limit:
-            raise DataFileError(
-                f"{what} is {_mib(st.st_size)}, over the {_mib(limit)} an input of its kind may be"
-            )
+        _check_size(os.fstat(fd).st_size, what, limit)
         chunks, total = [], 0
         while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
             chunks.append(chunk)
@@ -189,6 +188,25 @@ def tracking() -> Iterator[None]:
 def inputs() -> frozenset[str]:
     """The real paths of the files the running command has read (empty outside `tracking`)."""
     return frozenset(_INPUTS or ())
+
+
+def check_file(path: str | os.PathLike, what: str, limit: int) -> int:
+    """The size of the regular file `path`, checked as `read_bytes` checks it (missing,
+    special or over `limit`: `DataFileError`), for a file a library then opens by name."""
+    fd = _open_regular(Path(path), what)
+    try:
+        size = os.fstat(fd).st_size
+    finally:
+        os.close(fd)
+    _check_size(size, what, limit)
+    return size
+
+
+def _check_size(size: int, what: str, limit: int) -> None:
+    if size > limit:
+        raise DataFileError(
+            f"{what} is {_mib(size)}, over the {_mib(limit)} an input of its kind may be"
+        )
 
 
 def read_npz(

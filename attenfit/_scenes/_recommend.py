@@ -73,18 +73,21 @@ def check_reaches_zero(model: Family, R: float) -> str | None:
     return f"does not reach 0 at the range {R:g} (f = {where:.3g} there)"
 
 
-def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
+def recommend(
+    scene: Scene, *, measure: bool = False, truths: Sequence[LightTruth] | None = None
+) -> Recommendation:
     """Fit and judge every family on `scene`; recommend the cheapest within tolerance.
 
     See the module docstring for how the truth is generated, fitted, judged and ranked.
     `measure=True` also times each candidate on this machine (reported beside the compiled
-    cost, which ranks; a few seconds more).
+    cost, which ranks; a few seconds more). `truths`: the scene's `ground_truth()`, when
+    the caller has it already.
     """
     if not isinstance(scene, Scene):
         raise BadTypeError(f"recommend takes an attenfit.Scene, got {type(scene).__name__}")
     n_receivers = sum(_receiver_count(r) for r in scene.receivers)
     _progress.stage(f"ground truth: {len(scene.lights)} lights, up to {n_receivers} receivers each")
-    truths = scene.ground_truth()
+    truths = scene.ground_truth() if truths is None else tuple(truths)
     datas = [light_data(scene, t) for t in truths]
     for k, x in enumerate(datas):
         if x.d.size == 0:
@@ -273,6 +276,9 @@ def _fit_family(
     try:
         results: list[Any] = [None] * len(datas)
         plans = [fit_plan(cls, x, d_hi, knots) for x in datas]
+        pins = (scene.fixed or {}).get(name, {})
+        if pins:  # what the engine fixes is not fitted
+            plans = [({**v, **pins}, tuple(p for p in f if p not in pins)) for v, f in plans]
         for free in dict.fromkeys(p[1] for p in plans):
             group = [k for k, p in enumerate(plans) if p[1] == free]
             out = fit_group(cls, [datas[k] for k in group], [plans[k] for k in group])

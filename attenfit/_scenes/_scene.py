@@ -39,6 +39,11 @@ class Scene:
     description: str = ""
     seed: int = 0
     source: str = "<scene>"
+    #: Parameters an engine fixes, per family (`{"frostbite_window": {"r_min": 0.01}}`): pinned,
+    #: not fitted. Set by `--engine`; a TOML scene has none.
+    fixed: Mapping[str, Mapping[str, float]] | None = None
+    #: The spot falloffs ("frostbite", "threejs") an engine can express; None: both.
+    spot_falloffs: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.float32 and self.precision == "float64":  # `float32=True` says float32

@@ -190,6 +190,8 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
     em = light.emitter()
     pts_list, nrm_list, src = [], [], []
     for j, rec in enumerate(scene.receivers):
+        if isinstance(rec, PointReceivers) and rec.light not in (None, i):
+            continue
         if isinstance(rec, PlaneReceivers):
             p, n = _plane_points(rec)
         elif isinstance(rec, PointReceivers):
@@ -204,7 +206,8 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
                 )
                 n[~np.any(n != 0, axis=1)] = (0.0, 0.0, 1.0)
             else:
-                n = np.asarray([_unit(v) for v in rec.normals])
+                n = np.asarray(rec.normals, dtype=np.float64).reshape(-1, 3)
+                n = n / np.linalg.norm(n, axis=1, keepdims=True)
         else:
             rng = np.random.default_rng([scene.seed, i, j])
             p, n = _distribution_points(light, em, rec, rng)
@@ -212,8 +215,8 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
         pts_list.append(p[keep])
         nrm_list.append(n[keep])
         src.extend([f"[[receivers]][{j}]"] * int(keep.sum()))
-    pts = np.concatenate(pts_list)
-    nrm = np.concatenate(nrm_list)
+    pts = np.concatenate(pts_list) if pts_list else np.zeros((0, 3))
+    nrm = np.concatenate(nrm_list) if nrm_list else np.zeros((0, 3))
     if len(pts) == 0:
         raise BadValueError(
             f"{scene.source}: [[lights]][{i}]: every receiver lies inside this light"
