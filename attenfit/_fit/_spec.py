@@ -15,7 +15,7 @@ import jax
 import numpy as np
 from jaxtyping import Array
 
-from .._curves import Family
+from .._curves import AreaModel, Family
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 
 CONSTRAINT_WORDS = {
@@ -41,6 +41,10 @@ class Spec:
     #: the model's pytree leaves are exactly its parameters, in `names` order, so a fitted
     #: model is `tree_unflatten(treedef, values)` (20x cheaper than `eqx.tree_at`)
     leaves_are_params: bool = False
+    #: rows of `d` (an area model's inputs, `_area`); 0: `d` is a vector of distances
+    inputs: int = 0
+    #: the parameter leaves of a model (`eqx.tree_at`'s `where`), where not its fields by name
+    where: Callable[[Any], list[Any]] | None = dataclasses.field(default=None, compare=False)
 
 
 def _family_spec(model: Family, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
@@ -106,8 +110,10 @@ def _leaves_are_params(model: Family, names: tuple[str, ...]) -> bool:
     return _LEAVES_ARE_PARAMS[key]
 
 
-def rebuild(spec: Spec, template: Family, fields: Sequence[Any]) -> Family:
+def rebuild(spec: Spec, template: Any, fields: Sequence[Any]) -> Any:
     """`template` with its parameters replaced by `fields` (in `spec.names` order)."""
+    if spec.where is not None:
+        return eqx.tree_at(spec.where, template, list(fields), is_leaf=lambda x: x is None)
     if spec.leaves_are_params:
         return jax.tree_util.tree_unflatten(spec.key[1], list(fields))
     return eqx.tree_at(
@@ -172,6 +178,10 @@ def _pair_spec(model: tuple, batched: bool) -> tuple[Spec, dict[str, np.ndarray]
 
 
 def spec_of(model: Any, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
+    if isinstance(model, AreaModel):
+        from ._area import area_spec
+
+        return area_spec(model, batched)
     if isinstance(model, Family):
         return _family_spec(model, batched)
     if isinstance(model, type) and issubclass(model, Family):
@@ -181,7 +191,8 @@ def spec_of(model: Any, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
     if isinstance(model, tuple):
         return _pair_spec(model, batched)
     raise BadTypeError(
-        f"model must be a Family instance or a pair (fn, params), got {type(model).__name__}"
+        "model must be a Family or area model instance or a pair (fn, params), got "
+        f"{type(model).__name__}"
     )
 
 
