@@ -30,7 +30,7 @@ _SPECS: dict[Any, Spec] = {}
 
 def area_spec(model: AreaModel, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
     """The static structure of an area model and its parameter values."""
-    leaves, treedef = jax.tree_util.tree_flatten(model)
+    _, treedef = jax.tree_util.tree_flatten(model)
     key = (type(model), treedef)
     spec = _SPECS.get(key)
     names = model.param_names()
@@ -41,7 +41,9 @@ def area_spec(model: AreaModel, batched: bool) -> tuple[Spec, dict[str, np.ndarr
             return m.param_leaves()
 
         def evaluate(x, params):
-            m = eqx.tree_at(where, template, [params[n] for n in names], is_leaf=lambda v: v is None)
+            m = eqx.tree_at(
+                where, template, [params[n] for n in names], is_leaf=lambda v: v is None
+            )
             return m.evaluate(x)
 
         spec = _SPECS[key] = Spec(
@@ -72,7 +74,9 @@ def stack_inputs(x: Any, ndim: int) -> np.ndarray:
     try:
         arr = np.asarray(x)
     except Exception as exc:
-        raise BadTypeError(f"an area model's inputs must be AreaInputs, got {type(x).__name__}") from exc
+        raise BadTypeError(
+            f"an area model's inputs must be AreaInputs, got {type(x).__name__}"
+        ) from exc
     if arr.dtype.kind in "iu":
         arr = arr.astype(jax.dtypes.canonicalize_dtype(np.float64))
     if arr.dtype.kind != "f":

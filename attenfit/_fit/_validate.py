@@ -43,11 +43,12 @@ def validate_data(
         from ._area import stack_inputs
 
         x = stack_inputs(d, ndim)
-        _, target, weights = validate_data(x[..., 0, :], target, weights, loss, ndim)
-        if x.shape[-1] != target.shape[-1] or (x.ndim == 3 and x.shape[0] != target.shape[0]):
+        shape = np.shape(target)
+        if not shape or shape[-1] != x.shape[-1] or (x.ndim == 3 and shape[0] != x.shape[0]):
             raise BadValueError(
-                f"the inputs hold {x.shape[-1]} receivers, target has shape {target.shape}"
+                f"the inputs hold {x.shape[-1]} receivers, target has shape {shape}"
             )
+        _, target, weights = validate_data(x[..., 0, :], target, weights, loss, ndim)
         return x, target, weights
     d = float_array("d", d)
     target = float_array("target", target)
