@@ -104,6 +104,8 @@ class Recommendation:
         default_factory=dict, repr=False, compare=False
     )
     cost_label: str = ""
+    #: When no family meets the tolerance: the area-light models judged (`_escalate`).
+    area: Any = None
 
     @property
     def tolerance(self) -> float:
@@ -118,6 +120,8 @@ class Recommendation:
                 f"recommended: {w.label} (max error {pct(w.error)} <= tolerance {tol}, "
                 f"shader cost {w.shader_cost:g})"
             )
+        if self.area is not None:
+            return self.area.summary()
         c = self.closest
         closest = f"; closest: {c.label} with max error {pct(c.error)}" if c else ""
         return f"no family meets the tolerance {tol}{closest}"
@@ -143,6 +147,7 @@ class Recommendation:
             "truth": list(self.truth),
             "directional_fits": list(self.directional_fits),
             "shaders": dict(self.shaders),
+            "area": None if self.area is None else self.area.to_dict(),
         }
 
     def to_markdown(self) -> str:
@@ -197,6 +202,8 @@ class Recommendation:
             lines += [f"## Closest: {c.label}", "", f"max error {pct(c.error)}: {c.reason}", ""]
             lines += _param_lines(c)
             lines.append("")
+        if self.area is not None:
+            lines += self.area.markdown()
         if self.shaders:
             lines += [
                 "## The winner as GLSL",
