@@ -65,7 +65,7 @@ if TYPE_CHECKING:  # the public API, imported on first use (`__getattr__` reads 
     from ._curves import Yuksel as Yuksel
     from ._curves import YukselAdhoc as YukselAdhoc
 
-    # Area-light models: irradiance from the receiver's geometry (docs/area-lights.md).
+    # Area-light models: irradiance from the receiver's geometry (docs/area.md).
     from . import area as area
     from ._curves import AreaModel as AreaModel
     from ._curves import PointLight as PointLight

@@ -3,7 +3,7 @@
 A family predicts `E = I g f(d) max(0, n.l)`: its error on a tilted receiver, or where the
 light straddles the receiver's horizon, lies in the angular factor, which no `f(d)` reaches.
 An area model predicts `E / I` from the geometry the engines' area-light code reads
-(docs/area-lights.md), the `AreaInputs`:
+(docs/area.md), the `AreaInputs`:
 
 * `d`: the distance from the receiver to the light's centre (capsule: to its segment);
 * `cos_r = n.l`: the cosine at the receiver, `l` the unit vector to the centre;

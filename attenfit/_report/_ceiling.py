@@ -47,7 +47,7 @@ def _pct(x: float) -> str:
         return "-"
     if x < EXACT:
         return "exact"
-    return f"{100 * x:.2g}%" if x < 10 else f"{x:.3g}×"
+    return f"{100 * x:.3g}%" if x < 10 else f"{x:.3g}×"
 
 
 def _save(fig: Any, folder: Path, name: str, dpi: int, svg: bool) -> Path:
