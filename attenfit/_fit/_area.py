@@ -1,5 +1,5 @@
-"""Fitting area-light models: their spec (the fit's `d` is the stacked `AreaInputs`, one row
-per input), their inputs checked, and `fit_dataset` for them.
+"""Fitting area-light models: their inputs checked (the fit's `d` is the stacked `AreaInputs`,
+one row per input; their spec is `_spec.area_spec`), and `fit_dataset` for them.
 
 An area model's samples are receivers, not distances: `fit(model, x, target)` takes
 `x = attenfit.area_inputs(...)` (or its `stack()`, shape `(6, n)`; `(batch, 6, n)` for
@@ -11,59 +11,17 @@ from __future__ import annotations
 
 from typing import Any
 
-import equinox as eqx
 import jax
 import numpy as np
 
 from .._curves import AREA_INPUTS, AreaInputs, AreaModel
 from .._errors import BadTypeError, BadValueError
 from .._truth import area_inputs
-from ._spec import Spec
 
-__all__ = ["area_spec", "dataset_problem", "stack_inputs"]
+__all__ = ["dataset_problem", "stack_inputs"]
 
 #: Rows of an area model's `d`.
 ROWS = len(AREA_INPUTS)
-
-_SPECS: dict[Any, Spec] = {}
-
-
-def area_spec(model: AreaModel, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
-    """The static structure of an area model and its parameter values."""
-    _, treedef = jax.tree_util.tree_flatten(model)
-    key = (type(model), treedef)
-    spec = _SPECS.get(key)
-    names = model.param_names()
-    if spec is None:
-        template = model
-
-        def where(m: AreaModel) -> list[Any]:
-            return m.param_leaves()
-
-        def evaluate(x, params):
-            m = eqx.tree_at(
-                where, template, [params[n] for n in names], is_leaf=lambda v: v is None
-            )
-            return m.evaluate(x)
-
-        spec = _SPECS[key] = Spec(
-            key=key,
-            evaluate=evaluate,
-            names=names,
-            kinds=tuple(model.constraint(n) for n in names),
-            shapes=(),
-            family=model.name,
-            length_params=model.length_params(),
-            inputs=ROWS,
-            where=where,
-        )
-    values = {n: np.asarray(v) for n, v in zip(names, model.param_leaves(), strict=True)}
-    for n, v in values.items():
-        if v.dtype.kind not in "fiu":
-            raise BadTypeError(
-                f"parameter {n!r} of {model.name!r} must be a real number, got dtype {v.dtype}"
-            )
-    return spec, values
 
 
 def stack_inputs(x: Any, ndim: int) -> np.ndarray:

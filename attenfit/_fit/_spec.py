@@ -15,7 +15,7 @@ import jax
 import numpy as np
 from jaxtyping import Array
 
-from .._curves import AreaModel, Family
+from .._curves import AREA_INPUTS, AreaModel, Family
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 
 CONSTRAINT_WORDS = {
@@ -177,10 +177,49 @@ def _pair_spec(model: tuple, batched: bool) -> tuple[Spec, dict[str, np.ndarray]
     return spec, values
 
 
+_AREA_SPECS: dict[Any, Spec] = {}
+
+
+def area_spec(model: AreaModel, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
+    """The static structure of an area model and its parameter values."""
+    _, treedef = jax.tree_util.tree_flatten(model)
+    key = (type(model), treedef)
+    spec = _AREA_SPECS.get(key)
+    names = model.param_names()
+    if spec is None:
+        template = model
+
+        def where(m: AreaModel) -> list[Any]:
+            return m.param_leaves()
+
+        def evaluate(x, params):
+            m = eqx.tree_at(
+                where, template, [params[n] for n in names], is_leaf=lambda v: v is None
+            )
+            return m.evaluate(x)
+
+        spec = _AREA_SPECS[key] = Spec(
+            key=key,
+            evaluate=evaluate,
+            names=names,
+            kinds=tuple(model.constraint(n) for n in names),
+            shapes=(),
+            family=model.name,
+            length_params=model.length_params(),
+            inputs=len(AREA_INPUTS),
+            where=where,
+        )
+    values = {n: np.asarray(v) for n, v in zip(names, model.param_leaves(), strict=True)}
+    for n, v in values.items():
+        if v.dtype.kind not in "fiu":
+            raise BadTypeError(
+                f"parameter {n!r} of {model.name!r} must be a real number, got dtype {v.dtype}"
+            )
+    return spec, values
+
+
 def spec_of(model: Any, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
     if isinstance(model, AreaModel):
-        from ._area import area_spec
-
         return area_spec(model, batched)
     if isinstance(model, Family):
         return _family_spec(model, batched)

@@ -59,41 +59,55 @@ def _save(fig: Any, folder: Path, name: str, dpi: int, svg: bool) -> Path:
 
 
 def _cost_figure(data: Mapping[str, Any], folder: Path, dpi: int, svg: bool) -> Path:
-    """Max relative error against compiled cost, one panel per configuration of `COST_PANELS`."""
+    """Error against compiled cost, one column per configuration of `COST_PANELS`: max
+    relative error (top) and max absolute error in units of the facing value (bottom)."""
     import matplotlib.pyplot as plt
 
     rows = {r["config"]: r for r in data["rows"]}
     fams = data["family_costs"]
     panels = [rows[k] for k in COST_PANELS if k in rows]
+    lo, hi = min(fams.values()), max(fams.values())
+    metrics = (("max_rel", "max relative error"), ("max_abs", "max abs. error / facing value"))
     with mpl.rc_context(STYLE):
         fig, axes = plt.subplots(
-            1, len(panels), figsize=(4.6 * len(panels), 4.4), layout="constrained", squeeze=False
+            2, len(panels), figsize=(4.6 * len(panels), 7.6), layout="constrained", squeeze=False
         )
-        for ax, row in zip(axes[0], panels, strict=True):
-            ceil = max(row["best_fd"]["max_rel"], EXACT)
-            lo, hi = min(fams.values()), max(fams.values())
-            ax.fill_between([lo, hi], [ceil, ceil], [1e3, 1e3], color="tab:red", alpha=0.12)
-            ax.plot([lo, hi], [ceil, ceil], color="tab:red", lw=2)
-            ax.scatter(list(fams.values()), [ceil] * len(fams), marker="^", color="tab:red",
-                       s=18, zorder=3, label="point-light model, any f(d) (at or above the line)")  # fmt: skip
-            for m in row["models"]:
-                y = max(m["max_rel"], EXACT)
-                face = "none" if m["fitted"] else "tab:blue"
-                ax.scatter([m["cost"]], [y], s=42, facecolors=face, edgecolors="tab:blue", zorder=4)
-                label = m["name"] + (" (fitted)" if m["fitted"] else "")
-                ax.annotate(label, (m["cost"], y), xytext=(4, 3), textcoords="offset points",
-                            fontsize=7)  # fmt: skip
-            ax.axhline(GOAL, color="gray", ls=":", lw=1)
-            ax.set_yscale("log")
-            ax.set_ylim(EXACT / 2, 300)
-            ax.set_xlim(0, max(max(fams.values()), *(m["cost"] for m in row["models"])) * 1.25)
-            ax.set_title(row["title"], fontsize=9)
-            ax.set_xlabel("compiled cost (SPIR-V instructions)")
-            ax.set_ylabel("max relative error (bottom: exact)")
-        axes[0][0].scatter([], [], s=42, color="tab:blue", label="area model, shipped")
-        axes[0][0].scatter([], [], s=42, facecolors="none", edgecolors="tab:blue",
-                           label="area model, fitted")  # fmt: skip
-        axes[0][0].legend(loc="upper right", fontsize=7)
+        for col, row in enumerate(panels):
+            for k, (key, what) in enumerate(metrics):
+                ax = axes[k][col]
+                ceil = max(row["best_fd"][key], EXACT)
+                ax.fill_between([lo, hi], [ceil, ceil], [1e3, 1e3], color="tab:red", alpha=0.12)
+                ax.plot([lo, hi], [ceil, ceil], color="tab:red", lw=2)
+                ax.scatter(list(fams.values()), [ceil] * len(fams), marker="^", color="tab:red",
+                           s=18, zorder=3, label="point-light model, any f(d) (on or above the line)")  # fmt: skip
+                for i, m in enumerate(
+                    sorted(row["models"], key=lambda m: (m["cost"], m["fitted"]))
+                ):
+                    y = max(m[key], EXACT)
+                    face = "none" if m["fitted"] else "tab:blue"
+                    ax.scatter([m["cost"]], [y], s=42, facecolors=face, edgecolors="tab:blue",
+                               zorder=4)  # fmt: skip
+                    label = m["name"] + (" (fitted)" if m["fitted"] else "")
+                    dy = -11 if m["fitted"] else 4
+                    ax.annotate(label, (m["cost"], y), xytext=(5, dy + 3 * (i % 2)),
+                                textcoords="offset points", fontsize=7)  # fmt: skip
+                if key == "max_rel":
+                    ax.axhline(GOAL, color="gray", ls=":", lw=1, label="goal: 1%")
+                    ax.set_title(row["title"], fontsize=9)
+                ax.set_yscale("log")
+                ax.set_ylim(EXACT / 2, 300)
+                top = max(hi, *(m["cost"] for m in row["models"]))
+                ax.set_xlim(0, top * 1.3)
+                ax.set_xlabel("compiled cost (SPIR-V instructions)")
+                ax.set_ylabel(f"{what} (bottom: exact)")
+        ax0 = axes[0][0]
+        ax0.scatter([], [], s=42, color="tab:blue", label="area model, shipped")
+        ax0.scatter(
+            [], [], s=42, facecolors="none", edgecolors="tab:blue", label="area model, fitted"
+        )
+        ax0.legend(loc="center right", fontsize=7)
+        fig.suptitle("What no distance curve can fix: error against compiled cost, both model classes",
+                     fontsize=10)  # fmt: skip
         path = _save(fig, folder, "ceiling_cost_vs_error", dpi, svg)
         plt.close(fig)
     return path
@@ -145,7 +159,11 @@ def _floor_figure(data: Mapping[str, Any], folder: Path, dpi: int, svg: bool) ->
             rel = np.where(keep, np.abs(values - case.E) / np.where(keep, case.E, 1), np.nan)
             em = ax.imshow(image(np.log10(np.maximum(rel, 1e-8))), origin="lower", extent=extent,
                            vmin=-8, vmax=0, cmap="viridis")  # fmt: skip
-            ax.set_title(f"log10 relative error, {name} (max {_pct(np.nanmax(rel))})", fontsize=9)
+            ax.set_title(
+                f"log10 relative error, {name} (max {_pct(np.nanmax(rel))}; blank: below 0.1% "
+                "of the facing value)",
+                fontsize=8,
+            )
             ax.set_xlabel("x / r")
             ax.set_ylabel("y / r")
         fig.colorbar(em, ax=axes[1][:2], label="log10 |relative error|", shrink=0.85)

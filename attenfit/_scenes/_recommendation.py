@@ -257,8 +257,12 @@ class Recommendation:
             (tmp / "recommendation.json").write_text(
                 json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
             )
+            stem = None
             if self.winner is not None:
                 stem = _ident(self.winner.family)
+            elif self.area is not None and self.area.winner is not None:
+                stem = _ident(f"area_{self.area.winner.model}")
+            if stem is not None:
                 for lang, text in self.shaders.items():
                     (tmp / f"{stem}.{lang}").write_text(text, encoding="utf-8")
             fig, _ = self.plot_errors()
