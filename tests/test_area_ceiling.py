@@ -54,9 +54,9 @@ def _fake_data():
                 "best_fd": {"max_rel": 0.9, "max_abs": 1.2, "energy": 0.2},
                 "n": 10,
                 "models": [
-                    {**model, "name": "exact", "fitted": False, "params": {}, "max_rel": 1e-13,
+                    {**model, "name": "vector_disk", "fitted": False, "params": {}, "max_rel": 1e-13,
                      "max_abs": 1e-13, "energy": 1.0, "cost": 88.0},
-                    {**model, "name": "wrap", "fitted": True, "params": {"k": 1.2},
+                    {**model, "name": "unreal_wrap", "fitted": True, "params": {"k": 1.2},
                      "max_rel": 0.5, "max_abs": 0.1, "energy": 0.9, "cost": 21.0},
                 ],
             }
@@ -67,9 +67,23 @@ def _fake_data():
 def test_the_report_section_names_the_cheapest_model_within_one_percent(tmp_path):
     md, figs, _ = ceiling_section(None, data=_fake_data())
     assert md.startswith("## What no distance curve can fix")
-    assert "| floor under a one-sided disk, h = r/4 | 90% | 120% | 0.200 | exact | 88 |" in md
-    assert "wrap (fitted)" in md and "k = 1.2" in md
+    assert "| floor under a one-sided disk, h = r/4 | 90% | 120% | 0.200 | vector_disk | 88 |" in md
+    assert "unreal_wrap (fitted)" in md and "k = 1.2" in md
     assert figs == {}
+
+
+def test_the_report_writes_the_section_and_its_figures(tmp_path):
+    rep = attenfit.build_report(
+        ["inverse_square"], ["disk"], fitted=False, sweep_n=16, plane_px=8, cost=False
+    )
+    rep.meta["ceiling"] = _fake_data()  # what build_report(ceiling=True) computes (minutes)
+    out = rep.write(tmp_path / "rep")
+    md = (out / "report.md").read_text(encoding="utf-8")
+    assert "## What no distance curve can fix" in md
+    for name in ("ceiling_cost_vs_error", "ceiling_disk_floor"):
+        assert f"](figures/{name}.png)" in md
+        assert (out / "figures" / f"{name}.png").stat().st_size > 10_000
+    assert "ceiling" in (out / "report.json").read_text(encoding="utf-8")
 
 
 def test_escalation_picks_the_cheapest_area_model_and_says_why():
