@@ -23,7 +23,7 @@ def _config(key):
 
 @pytest.mark.parametrize(
     ("key", "max_rel", "energy"),
-    [("disk_h0.25", 0.94, 0.18), ("disk_h1", 0.43, 0.69), ("disk_h4", 0.045, 0.97)],
+    [("disk_h0.25", 0.94, 0.18), ("disk_h1", 0.43, 0.69), ("disk_h4", 0.045, 0.97)],  # fast
 )
 def test_the_disk_floor_ceiling_is_the_issues_table(key, max_rel, energy):
     """The issue's numbers (measured with attenfit's exact irradiance, best f(d) = the exact
@@ -36,6 +36,7 @@ def test_the_disk_floor_ceiling_is_the_issues_table(key, max_rel, energy):
     assert exact["max_rel"] < 1e-9 and exact["energy"] == pytest.approx(1, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_around_a_sphere_no_f_of_d_reaches_the_lit_band():
     case = CE.build_case(_config("sphere_10-100"), n=800)
     e = CE.errors(case, case.best_fd)
@@ -72,6 +73,14 @@ def test_the_report_section_names_the_cheapest_model_within_one_percent(tmp_path
     assert figs == {}
 
 
+def test_the_cost_figure_draws_both_classes(tmp_path):
+    from attenfit._report._ceiling import _cost_figure
+
+    path = _cost_figure(_fake_data(), tmp_path, 60, False)
+    assert path.name == "ceiling_cost_vs_error.png" and path.stat().st_size > 10_000
+
+
+@pytest.mark.slow
 def test_the_report_writes_the_section_and_its_figures(tmp_path):
     rep = attenfit.build_report(
         ["inverse_square"], ["disk"], fitted=False, sweep_n=16, plane_px=8, cost=False

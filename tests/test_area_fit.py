@@ -38,6 +38,7 @@ def test_fit_recovers_a_wrap_amount_on_tilted_receivers():
     assert again.model.k == pytest.approx(1.3, rel=1e-6)
 
 
+@pytest.mark.slow  # a second compile (about 10 s); fit_many's batching is the families' own
 def test_fit_many_recovers_each_problems_parameter():
     x = _receivers(200, 2)
     ks = (0.6, 1.3, 2.0)
