@@ -78,8 +78,9 @@ class AreaEscalation:
     shaders: dict[str, str]
     tolerance: float
 
-    def summary(self) -> str:
-        """One line: the area model recommended and why, or that none meets the tolerance."""
+    def summary(self, families: str = "no family meets the tolerance") -> str:
+        """One line: the area model recommended and why, or that none meets the tolerance
+        (after `families`, what the recommendation says of the families)."""
         if self.winner is not None:
             w = self.winner
             return (
@@ -88,9 +89,7 @@ class AreaEscalation:
             )
         c = self.closest
         near = f"; closest: the area model {c.label} with max error {pct(c.error)}" if c else ""
-        return (
-            f"no family or area model meets the tolerance {pct(self.tolerance)}{near}; {self.why}"
-        )
+        return f"{families}; no area model meets it either{near}; {self.why}"
 
     def to_dict(self) -> dict[str, Any]:
         return {

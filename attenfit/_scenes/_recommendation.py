@@ -120,11 +120,10 @@ class Recommendation:
                 f"recommended: {w.label} (max error {pct(w.error)} <= tolerance {tol}, "
                 f"shader cost {w.shader_cost:g})"
             )
-        if self.area is not None:
-            return self.area.summary()
         c = self.closest
         closest = f"; closest: {c.label} with max error {pct(c.error)}" if c else ""
-        return f"no family meets the tolerance {tol}{closest}"
+        families = f"no family meets the tolerance {tol}{closest}"
+        return families if self.area is None else self.area.summary(families)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (the scene, the generated configurations, every candidate)."""
