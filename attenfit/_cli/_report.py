@@ -54,6 +54,11 @@ def add_parser(sub, parents: list) -> None:
     )
     p.add_argument("--svg", action="store_true", help="also write every figure as SVG")
     p.add_argument(
+        "--ceiling",
+        action="store_true",
+        help="add the section 'what no distance curve can fix' (area-light models; minutes)",
+    )
+    p.add_argument(
         "--force", action="store_true", help="replace an existing non-empty output folder"
     )
     p.set_defaults(run=_run_report)
@@ -92,6 +97,7 @@ def _run_report(args: argparse.Namespace) -> int:
         sweep_n=args.sweep_n,
         plane_px=args.plane_px,
         figures_early=True,
+        ceiling=args.ceiling,
         progress=_progress.stage,
     )
     if witness is not None:

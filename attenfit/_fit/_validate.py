@@ -36,8 +36,20 @@ def float_array(name: str, x: Any) -> np.ndarray:
 
 
 def validate_data(
-    d: Any, target: Any, weights: Any, loss: str, ndim: int
+    d: Any, target: Any, weights: Any, loss: str, ndim: int, rows: int = 0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """`d`, `target` and `weights` checked; `rows`: an area model's inputs (`_area`) as `d`."""
+    if rows:
+        from ._area import stack_inputs
+
+        x = stack_inputs(d, ndim)
+        shape = np.shape(target)
+        if not shape or shape[-1] != x.shape[-1] or (x.ndim == 3 and shape[0] != x.shape[0]):
+            raise BadValueError(
+                f"the inputs hold {x.shape[-1]} receivers, target has shape {shape}"
+            )
+        _, target, weights = validate_data(x[..., 0, :], target, weights, loss, ndim)
+        return x, target, weights
     d = float_array("d", d)
     target = float_array("target", target)
     what = "(n,)" if ndim == 1 else "(batch, n)"

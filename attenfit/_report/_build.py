@@ -108,6 +108,7 @@ def build_report(
     plane_px: int = PLANE_PX,
     cost: bool | str = True,
     figures_early: bool = False,
+    ceiling: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Report:
     """Compare `families` (default: every registered one) against `emitters` and `datasets`.
@@ -124,6 +125,8 @@ def build_report(
             "counts", the operation counts only (deterministic, faster); False, none.
         figures_early: draw the published figures in a second thread while the fits run, for
             a report that will be written (`Report.write` then uses them).
+        ceiling: also compute the section "what no distance curve can fix" (`_ceiling`:
+            the point-light model's ceiling against the area models; minutes).
         progress: called with one line per stage (the CLI prints it on stderr).
     """
     import jax
@@ -248,6 +251,11 @@ def build_report(
         "jax": jax.__version__,
         "backend": jax.default_backend(),
     }
+    if ceiling:
+        from ._ceiling import ceiling_data
+
+        say("what no distance curve can fix: the ceiling and the area models")
+        meta["ceiling"] = ceiling_data()
     return Report(
         [c.name for c in classes],
         configs,

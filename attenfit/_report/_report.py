@@ -478,7 +478,17 @@ class Report:
             if progress is not None:
                 progress("tables: report.md, report.json, results.csv")
             rel = {k: f"figures/{Path(v).name}" for k, v in figs.items()}
-            (tmp / "report.md").write_text(self.markdown(rel), encoding="utf-8")
+            md = self.markdown(rel)
+            if "ceiling" in self.meta:  # the section of `_ceiling`, drawn from its numbers
+                from ._ceiling import ceiling_section
+
+                md += (
+                    "\n"
+                    + ceiling_section(tmp / "figures", data=self.meta["ceiling"], dpi=dpi, svg=svg)[
+                        0
+                    ]
+                )
+            (tmp / "report.md").write_text(md, encoding="utf-8")
             (tmp / "report.json").write_text(
                 json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n", encoding="utf-8"
             )

@@ -242,6 +242,13 @@ def recommend(
     judged = [c for c in candidates if c.error is not None and math.isfinite(c.error)]
     closest = min(judged, key=lambda c: (c.error, c.shader_cost)) if judged else None
     shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
+    area = None
+    if winner is None:  # no f(d) meets the tolerance: try the area models (_escalate)
+        from ._escalate import escalate
+
+        _progress.stage("no family meets the tolerance: area-light models")
+        area = escalate(scene, truths, datas, closest)
+        shaders = area.shaders if area is not None and area.winner is not None else shaders
     truth = tuple(_truth_summary(scene, t, x) for t, x in zip(truths, datas, strict=True))
     return Recommendation(
         scene=scene,
@@ -255,6 +262,7 @@ def recommend(
         measured=bool(measure),
         curves=curves,
         cost_label=cost_label,
+        area=area,
     )
 
 

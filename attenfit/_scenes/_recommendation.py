@@ -104,6 +104,8 @@ class Recommendation:
         default_factory=dict, repr=False, compare=False
     )
     cost_label: str = ""
+    #: When no family meets the tolerance: the area-light models judged (`_escalate`).
+    area: Any = None
 
     @property
     def tolerance(self) -> float:
@@ -120,7 +122,8 @@ class Recommendation:
             )
         c = self.closest
         closest = f"; closest: {c.label} with max error {pct(c.error)}" if c else ""
-        return f"no family meets the tolerance {tol}{closest}"
+        families = f"no family meets the tolerance {tol}{closest}"
+        return families if self.area is None else self.area.summary(families)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (the scene, the generated configurations, every candidate)."""
@@ -143,6 +146,7 @@ class Recommendation:
             "truth": list(self.truth),
             "directional_fits": list(self.directional_fits),
             "shaders": dict(self.shaders),
+            "area": None if self.area is None else self.area.to_dict(),
         }
 
     def to_markdown(self) -> str:
@@ -197,6 +201,8 @@ class Recommendation:
             lines += [f"## Closest: {c.label}", "", f"max error {pct(c.error)}: {c.reason}", ""]
             lines += _param_lines(c)
             lines.append("")
+        if self.area is not None:
+            lines += self.area.markdown()
         if self.shaders:
             lines += [
                 "## The winner as GLSL",
@@ -250,8 +256,12 @@ class Recommendation:
             (tmp / "recommendation.json").write_text(
                 json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
             )
+            stem = None
             if self.winner is not None:
                 stem = _ident(self.winner.family)
+            elif self.area is not None and self.area.winner is not None:
+                stem = _ident(f"area_{self.area.winner.model}")
+            if stem is not None:
                 for lang, text in self.shaders.items():
                     (tmp / f"{stem}.{lang}").write_text(text, encoding="utf-8")
             fig, _ = self.plot_errors()
