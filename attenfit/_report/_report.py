@@ -18,8 +18,8 @@ from .._errors import UnknownNameError
 from . import _figures
 from . import _metrics as M
 from ._configs import MODES, WINDOWED, Config
+from ._decide import decide, decision_markdown
 from ._markdown import (
-    cell_error,
     describe_emitter,
     emitter_dict,
     fmt_num,
@@ -29,7 +29,6 @@ from ._markdown import (
     jsonable,
     md_row,
 )
-from ._decide import decide, decision_markdown
 from ._published import PUBLISHED_RULES
 from ._summary import FIT_WHAT
 from ._summary import summary_markdown as _summary_markdown
