@@ -223,7 +223,11 @@ def decide(report) -> list[dict[str, Any]]:
                     if extra is None:
                         extra = [x for fn in _SOURCES for x in fn(cfg, report)]
                     ok = sorted(
-                        (c for c in extra if (c.errors.get(band) or math.inf) <= tol),
+                        (
+                            c
+                            for c in extra
+                            if c.errors.get(band) is not None and c.errors[band] <= tol
+                        ),
                         key=lambda c: _key(c, band),
                     )
                 entry = {
