@@ -426,3 +426,6 @@ def test_the_witness_section_shows_z_scores(tmp_path):
     assert w["median_abs_z"] == pytest.approx(float(np.median(np.abs(z))), rel=1e-9)
     assert "## Independent witness" in rep.markdown()
     assert irradiance is not None
+    out = rep.write(tmp_path / "w")
+    assert (out / "figures" / "mc_witness_z.png").is_file()
+    assert "figures/mc_witness_z.png" in (out / "report.md").read_text()

@@ -230,6 +230,35 @@ def _cost_vs_error(report):
     return fig
 
 
+def _witness_z(report, cfg):
+    """The z-scores of the exact values against a Monte Carlo dataset: their histogram over
+    the standard normal's density, with the median |z| (0.674 for an unbiased renderer)."""
+    import matplotlib as mpl
+
+    z = np.asarray(cfg.witness_z, np.float64)
+    z = z[np.isfinite(z)]
+    if not z.size:
+        return None
+    with mpl.rc_context(plots.STYLE):
+        fig = plots.new_figure((5.6, 3.6))
+        ax = fig.subplots()
+        lim = max(4.0, float(np.ceil(min(np.max(np.abs(z)), 8.0))))
+        clipped = np.clip(z, -lim, lim)
+        ax.hist(clipped, bins=min(60, max(10, z.size // 20)), range=(-lim, lim), density=True,
+                color="#0072B2", alpha=0.7, label=f"{z.size} receivers")  # fmt: skip
+        x = np.linspace(-lim, lim, 200)
+        ax.plot(
+            x, np.exp(-0.5 * x * x) / np.sqrt(2 * np.pi), color="black", label="standard normal"
+        )
+        ax.set_xlabel("z = (exact − Monte Carlo) / standard error (|z| > edge drawn at it)")
+        ax.set_ylabel("density")
+        ax.set_title(
+            f"{cfg.name} ({cfg.source}): median |z| = {np.median(np.abs(z)):.3g} (unbiased: 0.674)"
+        )
+        ax.legend(loc="upper right", frameon=False)
+    return fig
+
+
 def figure_jobs(report, *, published_only: bool = False):
     """(configuration, key, make) for every figure, in report order; `make()` returns a figure
     or None. With `published_only`, only those that need nothing beyond the published results
@@ -250,6 +279,8 @@ def figure_jobs(report, *, published_only: bool = False):
                             ),
                         )
                     )
+        if getattr(cfg, "witness_z", None) is not None:
+            jobs.append((cfg, f"{cfg.name}_witness_z", lambda cfg=cfg: _witness_z(report, cfg)))
         if cfg.plane is not None:
             jobs.append(
                 (cfg, f"{cfg.name}_plane_errors", lambda cfg=cfg: _plane_errors(report, cfg))
