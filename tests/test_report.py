@@ -372,7 +372,7 @@ def test_the_decision_table_picks_the_cheapest_within_tolerance(report):
     assert all(e["model"] == "inverse_square" and e["cost"] == 2 for e in far.values())
     assert far[0.01]["error"] < 0.01
     md = rep.decision_markdown()
-    assert md.count("\n| sphere |") == 3 and "`inverse_square` published" in md
+    assert md.count("\n| sphere |") == 3 and "| 1% to 20% | `inverse_square` published" in md
 
     # a registered source (an area model) fills the cells no distance curve meets
     area = _decide.Candidate(

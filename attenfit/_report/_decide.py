@@ -270,7 +270,10 @@ def decide(report) -> list[dict[str, Any]]:
                         why=why,
                     )
                 else:
-                    top = min(judged, key=lambda c: c.errors[band])
+                    top = min(  # errors equal to 3 digits: the cheaper
+                        judged,
+                        key=lambda c: (float(f"{c.errors[band]:.3g}"), _key(c, band)),
+                    )
                     w = top.worst.get(band)
                     horizon = (
                         w is not None
@@ -281,9 +284,8 @@ def decide(report) -> list[dict[str, Any]]:
                         )
                     )
                     reason = (
-                        "; within it on the facing and floor receivers, it fails where part of "
-                        "the light sinks below a tilted receiver's horizon, which no distance "
-                        "curve models"
+                        ", where part of the light sinks below a tilted receiver's horizon "
+                        f"(within {fmt_pct(tol)} on the facing and floor receivers)"
                         if horizon
                         else "; an area-light model is needed here"
                     )
@@ -295,8 +297,7 @@ def decide(report) -> list[dict[str, Any]]:
                         error=top.errors[band],
                         cost=top.cost,
                         why=(
-                            f"No distance curve meets {fmt_pct(tol)}: the closest, "
-                            f"`{top.model}` {top.mode}, is {fmt_pct(top.errors[band])} off"
+                            f"The closest is {fmt_pct(top.errors[band])} off"
                             f"{_where(top, band)}{reason}."
                         ),
                         best=top.model,
@@ -314,33 +315,43 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
                 "parameters (r: the light's radius)", "max error", "cost", "why"]),
         md_row(["---", "---", "---:", "---", "---", "---:", "---:", "---"]),
     ]  # fmt: skip
-    last = None
+    rows: list[list[Any]] = []  # consecutive tolerances with the same answer share a row
     for e in entries:
         light = f"{e['kind']} ({e['config']})" if e["kind"] != e["config"] else e["kind"]
-        group = (light, e["band"])
-        shown_light = light if group != last else ""
-        shown_band = GAP_BAND_LABELS[e["band"]] if group != last else ""
-        last = group
         if e["model"] is None:
-            model = f"none (closest: `{e['best']}` {e['mode']})"
+            model = f"none; closest: `{e['best']}` {e['mode']}"
         else:
             model = f"`{e['model']}` {e['mode']}"
             if e.get("model_kind") and e["model_kind"] != "distance curve":
                 model += f" ({e['model_kind']})"
+        why = e["why"].replace(f"within {fmt_pct(e['tolerance'])}", "within the tolerance")
+        same = (light, e["band"], model, e["params"], fmt_pct(e["error"]), why)
+        if rows and rows[-1][0] == same:
+            rows[-1][1].append(e["tolerance"])
+        else:
+            rows.append([same, [e["tolerance"]], e])
+    last = None
+    for same, tols, e in rows:
+        light, band = same[0], same[1]
+        group = (light, band)
+        tol_text = (
+            fmt_pct(tols[0]) if len(tols) == 1 else f"{fmt_pct(tols[0])} to {fmt_pct(tols[-1])}"
+        )
         lines.append(
             md_row(
                 [
-                    shown_light,
-                    shown_band,
-                    fmt_pct(e["tolerance"]),
-                    model,
+                    light if group != last else "",
+                    GAP_BAND_LABELS[band] if group != last else "",
+                    tol_text,
+                    same[2],
                     e["params"],
                     fmt_pct(e["error"]),
                     fmt_num(e["cost"]),
-                    e["why"],
+                    same[5],
                 ]
             )
         )
+        last = group
     note = (
         "The largest |error| of a model's irradiance over three receiver sets in each band "
         "(facing sweep, floors from contact to 10 r, random orientations; see the summary), "

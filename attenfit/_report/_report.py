@@ -160,6 +160,12 @@ class Report:
                     "plane_energy_discarded": en.get("discarded_fraction"),
                     "image_max_abs": img.get("max_abs"),
                     "image_rms": img.get("rms"),
+                    **{
+                        f"{k}_max_abs": (
+                            ((r.get("receivers") or {}).get(k) or {}).get("overall") or {}
+                        ).get("max_abs")
+                        for k in ("facing", "floor", "random")
+                    },
                     "ns_per_eval": (self.costs.get(r["family"]) or {}).get("ns_per_eval"),
                 }
             )
