@@ -60,14 +60,17 @@ def plot_cost_vs_error(
 
         for group, colour, size, label in ((off, "0.45", 24, "dominated"),
                                            (on, "C3", 32, "Pareto front")):  # fmt: skip
+            named = False
             for m in ("o", "v", "^"):
                 ks = [k for k in group if marker(k) == m]
                 if ks:
                     ax.scatter([xs[k] for k in ks], [ys[k] for k in ks], c=colour, s=size,
                                marker=m, zorder=3, clip_on=False,
-                               label=label if m == "o" else None)  # fmt: skip
+                               label=None if named else label)  # fmt: skip
+                    named = True
         if any(marker(k) != "o" for k in finite):
-            ax.plot([], [], " ", label=f"▼/▲: beyond {floor:g} / {top:g}, drawn at the edge")
+            ax.plot([], [], " ", label=f"▼ below {100 * floor:g}%, ▲ above {100 * top:g}%: "
+                    "drawn on the edge")  # fmt: skip
         if on:
             fx, fy = [xs[k] for k in on], [ys[k] for k in on]
             ax.step(fx, fy, where="post", color="C3", lw=1.2, zorder=2)
