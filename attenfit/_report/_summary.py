@@ -88,8 +88,13 @@ def summary_markdown(report) -> str:
                 pub, fit = rows.get("published"), rows.get("fitted")
                 a, b = _max(pub, s), _max(fit, s)
                 mark = ""
-                # worse as shown (3 digits): rounding-level differences are not flagged
-                if a is not None and b is not None and float(f"{b:.3g}") > float(f"{a:.3g}"):
+                # worse as shown (3 digits), and above float64 rounding (1e-9): flagged
+                if (
+                    a is not None
+                    and b is not None
+                    and b > 1e-9
+                    and float(f"{b:.3g}") > float(f"{a:.3g}")
+                ):
                     notes.append(_why_worse(fam, c.name, s, pub, fit))
                     mark = f" [{len(notes)}]"
                 row.append(" / ".join(cells) + (" ᵂ" if windowed else "") + mark)
