@@ -38,7 +38,7 @@ from ._configs import (
 from ._evaluate import evaluate_row, failed_row, family_costs, truth_interpolator
 from ._findings import seed_findings
 from ._fit_all import fit_all
-from ._published import published_params, range_of
+from ._published import published_params, range_of, range_params, shape_free
 from ._report import Report
 
 
@@ -312,28 +312,46 @@ def _fit_range(cls: type, start: Mapping[str, Any]) -> float | None:
 def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
     """Fit every family on every sweep, in one solve per sample count (`_report_fit`).
 
-    Windowed families are fitted inside their published range (weights 0 beyond it). If the
-    combined solve fails as a whole, each family is fitted on its own with `fit_many`.
+    Only shape parameters are free (`shape_free`): a range is the user's budget and stays at
+    its published value. Windowed families are fitted where they are judged, d <= range/2
+    (weights 0 beyond). A family with nothing free keeps its published parameters. If the
+    combined solve fails as a whole, each row is marked failed with the error.
     """
 
     groups: dict[int, list[Config]] = {}
     for c in sweep_cfgs:
         groups.setdefault(int(c.sweep.d.size), []).append(c)
+    fixed = {cls: range_params(cls) for cls in classes}
     for cfgs in groups.values():
         problems, keys = [], []
         for cls in classes:
             for c in cfgs:
                 start = pub[(cls.name, c.name)][0]
                 rg = _fit_range(cls, start)
+                if not shape_free(cls):
+                    model = models[(cls.name, c.name, "published")]
+                    models[(cls.name, c.name, "fitted")] = model
+                    note = (
+                        f"nothing to fit ({', '.join(range_params(cls))} is the range, kept "
+                        "fixed): fitted = published"
+                        if range_params(cls)
+                        else "no parameter: fitted = published"
+                    )
+                    results.append(
+                        evaluate_row(cls.name, c, "fitted", model, note=note, store=values)
+                    )
+                    continue
                 w = (
-                    (c.sweep.d < rg).astype(np.float64)
+                    (c.sweep.d <= 0.5 * rg).astype(np.float64)
                     if rg is not None
                     else np.ones_like(c.sweep.d)
                 )
                 problems.append((cls, start, c.sweep.d, c.sweep.truth, w))
                 keys.append((cls, c, rg))
+        if not problems:
+            continue
         try:
-            outs = fit_all(problems)
+            outs = fit_all(problems, fixed=fixed)
         except Exception as exc:  # e.g. a user's family that cannot be traced under a switch
             outs = [None] * len(problems)
             error = f"{type(exc).__name__}: {exc}"
@@ -360,6 +378,8 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
                 continue
             models[(cls.name, c.name, "fitted")] = model
             note = f"free: {', '.join(info['free']) or 'none'}"
+            if range_params(cls):
+                note += f"; {', '.join(range_params(cls))} fixed (the range)"
             moved = _moved(info, start_of(cls, c))
             if moved:  # converged where the loss reached rounding level, the optimum at a limit
                 note += f"; {'; '.join(moved)}: no finite optimum"

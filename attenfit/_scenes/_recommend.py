@@ -261,6 +261,12 @@ def recommend(
         directional_fits=tuple(directional_fits),
         measured=bool(measure),
         curves=curves,
+        angles=np.concatenate(  # a spot's receivers: their angle from its axis, for the plot
+            [
+                np.degrees(x.theta) if x.spot is not None else np.full(x.d.shape, np.nan)
+                for x in datas
+            ]
+        ),
         cost_label=cost_label,
         area=area,
     )
