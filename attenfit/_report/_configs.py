@@ -96,6 +96,9 @@ class Receivers:
     ref: np.ndarray
     gap: np.ndarray
     description: str
+    #: The receivers themselves (N x 3), for models that read their geometry (area models).
+    points: np.ndarray | None = None
+    normals: np.ndarray | None = None
 
 
 @dataclasses.dataclass
@@ -281,11 +284,22 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
         return np.hypot(z, np.maximum(q - r, 0.0))
 
     receivers = {
-        "facing": Receivers("facing", sd, sw, sE, sE, gap(sweep_p, sd), what_sweep),
-        "floor": Receivers("floor", fd, fw, fE, fE, gap(floor_p, fd), floor_what),
-        "random": Receivers("random", qd, qw, qE, qF, gap(rand_p, qd), rand_what),
+        "facing": Receivers(
+            "facing", sd, sw, sE, sE, gap(sweep_p, sd), what_sweep, *_geometry(sweep_p, -axis)
+        ),
+        "floor": Receivers(
+            "floor", fd, fw, fE, fE, gap(floor_p, fd), floor_what, *_geometry(floor_p, floor_n)
+        ),
+        "random": Receivers(
+            "random", qd, qw, qE, qF, gap(rand_p, qd), rand_what, *_geometry(rand_p, rand_n)
+        ),
     }
     return Config(name, kind, emitter, r, sweep, plane, "attenfit.irradiance (exact)", receivers)
+
+
+def _geometry(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    p = np.reshape(points, (-1, 3))
+    return p, np.broadcast_to(normals, p.shape).reshape(-1, 3)
 
 
 def _floor_receivers(kind: str, c: np.ndarray, axis: np.ndarray, r: float):

@@ -117,8 +117,9 @@ def params_in_r(
 
 
 # ============================================================================ candidates
-def _row_candidate(report, row: Mapping[str, Any], r: float, absolute: Sequence[str]):
-    rx = row.get("receivers") or {}
+def judge(rx: Mapping[str, Any]) -> tuple[dict, dict, dict]:
+    """`(errors, worst, set_errors)` of a `Candidate` from its `_metrics.receiver_errors`
+    per receiver set: per band, the largest |error| over the sets and where it is."""
     errors: dict[str, float | None] = {}
     worst: dict[str, tuple[str, float] | None] = {}
     per_set = {
@@ -140,11 +141,16 @@ def _row_candidate(report, row: Mapping[str, Any], r: float, absolute: Sequence[
                 continue
             if best is None or v > best:
                 best, where = v, (s, st.get("worst_at"))
-        covers = rx.get("facing", {}).get("covers")
+        covers = (rx.get("facing") or {}).get("covers")
         if covers is not None and band not in covers:
             judged = False  # a window whose range/2 ends inside the band
         errors[band] = best if judged else None
         worst[band] = where if judged else None
+    return errors, worst, per_set
+
+
+def _row_candidate(report, row: Mapping[str, Any], r: float, absolute: Sequence[str]):
+    errors, worst, per_set = judge(row.get("receivers") or {})
     cost = (report.costs.get(row["family"]) or {}).get("shader_cost")
     return Candidate(
         model=row["family"],
