@@ -25,8 +25,9 @@ def _sweeps(R: float, dtype: str):
     sphere = af.SphereEmitter([0.0, 0.0, 0.0], R)
     disk = af.DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], R)
     return (
-        af.facing_sweep(sphere, R * (1 + 1e-6), R * 1e9, n=48, dtype=dtype),
-        af.facing_sweep(disk, R * 1e-6, R * 1e9, n=48, dtype=dtype),
+        # as near as a float32 renderer can judge (attenfit._truth._clearance: 2^-16 of R)
+        af.facing_sweep(sphere, R * (1 + 2.0**-15), R * 1e9, n=48, dtype=dtype),
+        af.facing_sweep(disk, R * 2.0**-15, R * 1e9, n=48, dtype=dtype),
     )
 
 
@@ -90,7 +91,9 @@ def test_small_report_on_extreme_lights():
     # fit says so (report.json keeps the fit's `at_bound`)
     eps_fit = rows[("unreal_epsilon", "tiny", "fitted")]["fit"]
     assert eps_fit["at_bound"] == ["eps"], eps_fit
-    assert all("at_bound" in r["fit"] for k, r in rows.items() if k[2] == "fitted")
+    for k, r in rows.items():  # a family with nothing to fit (fitted = published) has no fit
+        if k[2] == "fitted" and af.get_family(k[0]).param_names():
+            assert "at_bound" in r["fit"], k
     md = rep.markdown({})
     assert md.count("fit failed") >= failed
     # Yuksel as published (its r = the sphere's) is worst at contact: 1 - (2 - sqrt 2) =
