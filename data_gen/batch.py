@@ -13,7 +13,6 @@ work folder removed. A receiver's numbers depend only on the seed and its index
 from __future__ import annotations
 
 import contextlib
-import io
 import json
 import os
 import shutil
@@ -23,8 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from attenfit import BadValueError, Dataset, OutputExistsError
+from attenfit import BadValueError, DataFileError, Dataset, OutputExistsError
 from attenfit._atomic import atomic_write, check_output_path
+from attenfit._input import read_npz
 
 from .estimate import Estimate, estimate_detail
 from .render import dataset_from_estimate, fingerprint, occluder_for, unit_receivers
@@ -58,14 +58,14 @@ def _write_chunk(path: Path, est: Estimate, header: dict) -> None:
 
 def _read_chunk(path: Path, header: dict) -> Estimate | None:
     """The chunk at `path` if it belongs to this run (same header), else None."""
-    try:
-        with np.load(io.BytesIO(path.read_bytes()), allow_pickle=False) as npz:
-            if json.loads(str(npz["header"])) != header:
-                return None
-            arrays = {name: np.asarray(npz[name], dtype=np.float64) for name in _FIELDS}
-    except Exception:  # a damaged chunk raises anything (NotImplementedError, ...): re-render it
-        return None
     n = header["stop"] - header["start"]
+    try:  # a chunk's arrays and header: well under 64 bytes a receiver, and some
+        npz = read_npz(path, f"chunk {path.name!r}", 64 * n + (1 << 20))
+        if json.loads(str(npz["header"])) != header:
+            return None
+        arrays = {name: np.asarray(npz[name], dtype=np.float64) for name in _FIELDS}
+    except (DataFileError, KeyError, ValueError):  # damaged or foreign: re-render it
+        return None
     if any(a.shape != (n,) or not np.all(np.isfinite(a)) for a in arrays.values()):
         return None
     return Estimate(variant=header["variant"], **arrays)

@@ -29,7 +29,7 @@ def _stage(module: str) -> str:
     if len(parts) == 1:  # the package itself
         return "public"
     top = parts[1]
-    if top in ("_errors", "_atomic", "_version", "_cache", "_progress"):
+    if top in ("_errors", "_atomic", "_version", "_cache", "_progress", "_input", "_budget"):
         return "base"
     if top.startswith("_") and top[1:] in STAGES:
         return top[1:]

@@ -313,7 +313,7 @@ def test_missing_fit_file_is_a_data_file_error(tmp_path):
         ex.export(str(tmp_path / "nope.json"))
     bad = tmp_path / "bad.json"
     bad.write_text("{not json")
-    with pytest.raises(attenfit.DataFileError, match="not readable JSON"):
+    with pytest.raises(attenfit.DataFileError, match="not valid JSON"):
         ex.export(bad)
 
 

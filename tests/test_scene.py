@@ -205,7 +205,7 @@ def test_toml_syntax_error_names_file_and_position(tmp_path):
     try:
         tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        expected = f"bad.toml: TOML syntax error: {exc}"
+        expected = f"scene file 'bad.toml': TOML syntax error: {exc}"
     with pytest.raises(DataFileError) as info:
         Scene.load(_write(tmp_path, text, "bad.toml"))
     assert str(info.value) == expected
@@ -215,7 +215,7 @@ def test_toml_syntax_error_names_file_and_position(tmp_path):
 def test_missing_file(tmp_path):
     with pytest.raises(DataFileError) as info:
         Scene.load(tmp_path / "nope.toml")
-    assert str(info.value) == f"nope.toml: no such scene file ({str(tmp_path / 'nope.toml')!r})"
+    assert str(info.value) == "scene file 'nope.toml' does not exist"
 
 
 # ----------------------------------------------------------------------------- ground truth

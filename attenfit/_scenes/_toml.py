@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import os
-import tomllib
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -14,7 +13,8 @@ from typing import Any
 import numpy as np
 
 from .._curves import list_families
-from .._errors import BadTypeError, BadValueError, DataFileError, UnknownNameError
+from .._errors import BadTypeError, BadValueError, UnknownNameError
+from .._input import LIMITS, load_toml, read_text
 from .._truth import DiskEmitter
 from ._truth import inside_light
 from ._types import (
@@ -108,23 +108,8 @@ def read_toml(path: str | os.PathLike) -> tuple[dict[str, Any], str]:
     """The parsed TOML of a scene file and its label (the file's name) for messages."""
     path = Path(path)
     label = path.name
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise DataFileError(f"{label}: no such scene file ({str(path)!r})") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{label}: is a folder, not a scene file") from None
-    except OSError as exc:
-        raise DataFileError(f"{label}: cannot read the scene file: {exc.strerror}") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise DataFileError(f"{label}: not a UTF-8 text file") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DataFileError(f"{label}: TOML syntax error: {exc}") from None
-    return data, label
+    text = read_text(path, f"scene file {label!r}", LIMITS["scene"])
+    return load_toml(text, f"scene file {label!r}"), label
 
 
 # ----------------------------------------------------------------------------- validation

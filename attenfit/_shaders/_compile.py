@@ -92,26 +92,50 @@ def _tool(name: str) -> str | None:
     return str(hits[0]) if hits else None
 
 
+_TOOLS = ("glslangValidator", "spirv-opt", "spirv-dis", "ptxas", "nvdisasm", "cuobjdump")
+
+
 @functools.cache
 def compilers() -> dict[str, str | None]:
     """Each compiler's version, or None when it is not installed.
 
     Keys: glslangValidator, spirv-opt, spirv-dis (SPIR-V); nvrtc, ptxas, and nvdisasm or
-    cuobjdump (SASS).
+    cuobjdump (SASS). Asking each tool for its version takes about a second, so the answer
+    is kept in attenfit's cache under the tools' paths, sizes and modification times.
     """
+    paths = {name: _tool(name) for name in _TOOLS}
+    libs = [p for p in _nvidia_files("*/lib/libnvrtc.so*") if "alt" not in p.name]
+    stamp = json.dumps(
+        [(str(p), *_stat(p)) for p in [*paths.values(), *libs] if p is not None], sort_keys=True
+    )
+    cached = _cache.read("compilers", stamp)
+    if cached is not None:
+        try:
+            return json.loads(cached)
+        except ValueError:
+            pass
     out: dict[str, str | None] = {}
-    glslang = _tool("glslangValidator")
+    glslang = paths["glslangValidator"]
     out["glslangValidator"] = glslang and _version(
         [glslang, "--version"], r"Glslang Version: (\S+)"
     )
     for name in ("spirv-opt", "spirv-dis"):
-        path = _tool(name)
+        path = paths[name]
         out[name] = path and _version([path, "--version"], r"(SPIRV-Tools v\S+)")
     out["nvrtc"] = _nvrtc_version()
     for name in ("ptxas", "nvdisasm", "cuobjdump"):
-        path = _tool(name)
+        path = paths[name]
         out[name] = path and _version([path, "--version"], r"(V\d+\.\d+\.\d+)")
+    _cache.write("compilers", stamp, json.dumps(out).encode())
     return out
+
+
+def _stat(path: str | Path) -> tuple[int, int]:
+    try:
+        st = os.stat(path)
+    except OSError:
+        return (0, 0)
+    return (st.st_size, st.st_mtime_ns)
 
 
 def missing(target: str) -> str | None:

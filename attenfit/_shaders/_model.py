@@ -3,7 +3,6 @@ result, its dict, or a fit file (`load_model`)."""
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -13,6 +12,7 @@ import numpy as np
 
 from .._curves import Family, get_family
 from .._errors import BadTypeError, BadValueError, DataFileError, UnknownNameError
+from .._input import LIMITS, load_json, read_text
 
 __all__ = ["load_model", "param_value"]
 
@@ -38,12 +38,8 @@ def load_model(source: Any, *, family: str | None = None) -> tuple[Family, dict[
         path = Path(source)
         if path.is_dir():
             path = path / "fits.json"
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except FileNotFoundError:
-            raise DataFileError(f"fit file {str(path)!r} does not exist") from None
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-            raise DataFileError(f"fit file {str(path)!r} is not readable JSON: {exc}") from None
+        what = f"fit file {str(path)!r}"
+        data = load_json(read_text(path, what, LIMITS["fits"]), what)
         model, info = _from_dict(data, where=f"fit file {str(path)!r}", family=family)
         info["file"] = str(path)
         return model, info

@@ -10,7 +10,6 @@ the provenance and a format version.
 from __future__ import annotations
 
 import dataclasses
-import io
 import json
 import math
 import os
@@ -23,7 +22,9 @@ import jax
 import numpy as np
 
 from .._atomic import atomic_write
+from .._budget import budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
+from .._input import load_json, read_npz
 from .._version import __version__
 from ._emitters import (
     AbstractEmitter,
@@ -66,6 +67,9 @@ def _float_array(name: str, x: Any) -> np.ndarray:
         raise BadTypeError(f"{name} must be a float array, got {type(x).__name__}") from exc
     if not np.issubdtype(arr.dtype, np.floating):
         raise BadTypeError(f"{name} must be a float array, got dtype {arr.dtype}")
+    if arr.dtype.itemsize not in (4, 8):  # float16, longdouble: JAX computes in neither
+        raise BadTypeError(f"{name} must be float32 or float64, got {arr.dtype}")
+    arr = arr.astype(arr.dtype.newbyteorder("="), copy=False)  # big-endian: the machine's order
     if not np.all(np.isfinite(arr)):
         raise BadValueError(
             f"{name} must be finite; {int(np.sum(~np.isfinite(arr)))} entries are not"
@@ -202,27 +206,11 @@ class Dataset:
         Raises `DataFileError` for a missing, truncated, corrupt or foreign file.
         """
         path = Path(path)
-        if not path.is_file():
-            raise DataFileError(f"dataset file {str(path)!r} does not exist or is not a file")
-        try:
-            raw = path.read_bytes()
-            if not raw.startswith(b"PK\x03\x04"):  # np.load would call other bytes a pickle
-                raise DataFileError(
-                    f"{str(path)!r} is not a readable attenfit dataset (.npz): "
-                    f"not a zip archive ({len(raw)} bytes, starting {raw[:8]!r})"
-                )
-            with np.load(io.BytesIO(raw), allow_pickle=False) as npz:
-                names = set(npz.files)
-                if "header" not in names:
-                    raise DataFileError(f"{str(path)!r} is not an attenfit dataset (no header)")
-                header = json.loads(str(npz["header"]))
-                arrays = {name: npz[name] for name in _ARRAYS if name in names}
-        except DataFileError:
-            raise
-        except Exception as exc:  # a damaged zip raises anything (NotImplementedError, ...)
-            raise DataFileError(
-                f"{str(path)!r} is not a readable attenfit dataset (.npz): {type(exc).__name__}: {exc}"
-            ) from exc
+        what = repr(str(path))
+        arrays = read_npz(path, what, budget(), "attenfit dataset (.npz)", ("header", *_ARRAYS))
+        if "header" not in arrays or arrays["header"].shape != ():
+            raise DataFileError(f"{what} is not an attenfit dataset (no header)")
+        header = load_json(str(arrays.pop("header")), f"the header of {what}")
         if not isinstance(header, dict) or header.get("format") != FORMAT:
             raise DataFileError(
                 f"{str(path)!r} is not an attenfit dataset (header format is not {FORMAT!r})"
@@ -231,6 +219,7 @@ class Dataset:
             raise DataFileError(
                 f"{str(path)!r} has dataset format version {header.get('version')!r}; this attenfit reads {FORMAT_VERSION}"
             )
+        arrays = {name: arrays[name] for name in _ARRAYS if name in arrays}
         missing = [name for name in _ARRAYS if name not in arrays]
         if missing:
             raise DataFileError(f"{str(path)!r} lacks the arrays {missing}")

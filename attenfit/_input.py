@@ -1,0 +1,239 @@
+"""Input files read without hanging, exhausting memory or overflowing the stack.
+
+Every file attenfit reads goes through `read_bytes`: it opens without blocking (a FIFO
+would wait forever for a writer), accepts only a regular file (not `/dev/zero`, a socket or
+a folder), and refuses one larger than the limit for its kind before reading a byte.
+Parsed text is checked for nesting before it reaches a recursive parser: no scene, fit
+file or header needs more than `MAX_DEPTH` levels, and TOML's dotted keys are bounded too
+(`tomllib` takes quadratic time and memory in a key's length: 8,000 segments take 1 s).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import stat
+import tomllib
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._errors import DataFileError
+
+__all__ = ["LIMITS", "MAX_DEPTH", "load_json", "load_toml", "read_bytes", "read_npz", "read_text"]
+
+#: Size limits per kind of input (bytes). A real scene file is a few kB (a list of 4,096
+#: receiver points, the most a scene takes, is about 200 kB); a fit file is a few kB a fit.
+LIMITS = {
+    "scene": 4 << 20,
+    "fits": 64 << 20,
+    "json": 64 << 20,
+    "source": 1 << 20,
+}
+#: The deepest nesting of arrays and tables any attenfit input has is 4; 32 is generous.
+MAX_DEPTH = 32
+
+
+def _mib(n: int) -> str:
+    return f"{n / (1 << 20):.3g} MiB" if n >= 1 << 20 else f"{n:,} bytes"
+
+
+def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
+    """The bytes of the regular file `path`, at most `limit` of them.
+
+    `what` names the file in messages (e.g. "scene file 'room.toml'"). Raises
+    `DataFileError` for a missing, unreadable or special file (FIFO, device, folder) and
+    for one over `limit`, before reading it.
+    """
+    path = Path(path)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except FileNotFoundError:
+        raise DataFileError(f"{what} does not exist") from None
+    except IsADirectoryError:
+        raise DataFileError(f"{what} is a folder, not a file") from None
+    except OSError as exc:
+        raise DataFileError(f"{what} cannot be read: {exc.strerror}") from None
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            raise DataFileError(f"{what} is a folder, not a file")
+        if not stat.S_ISREG(st.st_mode):
+            raise DataFileError(f"{what} is not a regular file (a pipe, device or socket)")
+        if st.st_size > limit:
+            raise DataFileError(
+                f"{what} is {_mib(st.st_size)}, over the {_mib(limit)} an input of its kind may be"
+            )
+        chunks, total = [], 0
+        while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:  # grew while read
+                raise DataFileError(f"{what} grew past {_mib(limit)} while being read")
+        return b"".join(chunks)
+    except OSError as exc:
+        raise DataFileError(f"{what} cannot be read: {exc.strerror}") from None
+    finally:
+        os.close(fd)
+
+
+def read_text(path: str | os.PathLike, what: str, limit: int) -> str:
+    """`read_bytes` decoded as UTF-8 (a `DataFileError` if it is not)."""
+    try:
+        return read_bytes(path, what, limit).decode("utf-8")
+    except UnicodeDecodeError:
+        raise DataFileError(f"{what} is not UTF-8 text") from None
+
+
+# Strings (JSON; TOML basic, literal and multi-line) and TOML comments, blanked before
+# the structure is scanned so that brackets and dots inside them do not count.
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"', re.S)
+_TOML_STRING = re.compile(
+    r'"""(?:[^\\]|\\.)*?"""|\'\'\'.*?\'\'\'|"(?:[^"\\\n]|\\.)*"|\'[^\'\n]*\'|#[^\n]*', re.S
+)
+_SEGMENT = r'(?:[A-Za-z0-9_-]+|"")'
+_DOTTED = re.compile(rf"{_SEGMENT}(?:[ \t]*\.[ \t]*{_SEGMENT}){{{MAX_DEPTH},}}")
+
+
+def _depth(structure: str) -> int:
+    """The deepest nesting of `[`/`{` in `structure` (strings already blanked)."""
+    b = np.frombuffer(structure.encode("utf-8", "replace"), np.uint8)
+    step = np.isin(b, (ord("["), ord("{"))).astype(np.int32) - np.isin(b, (ord("]"), ord("}")))
+    return int(np.cumsum(step).max(initial=0))
+
+
+def _check_depth(structure: str, what: str) -> None:
+    depth = _depth(structure)
+    if depth > MAX_DEPTH:
+        raise DataFileError(
+            f"{what} nests arrays or tables {depth} deep; attenfit reads at most {MAX_DEPTH}"
+        )
+
+
+def load_json(text: str, what: str) -> Any:
+    """`json.loads(text)`, refusing nesting deeper than `MAX_DEPTH` before parsing."""
+    _check_depth(_JSON_STRING.sub('""', text), what)
+    try:
+        return json.loads(text)
+    except (json.JSONDecodeError, RecursionError) as exc:
+        raise DataFileError(f"{what} is not valid JSON: {exc}") from None
+
+
+def load_toml(text: str, what: str) -> dict[str, Any]:
+    """`tomllib.loads(text)`, refusing nesting or dotted keys deeper than `MAX_DEPTH` first."""
+    structure = _TOML_STRING.sub('""', text)
+    _check_depth(structure, what)
+    if m := _DOTTED.search(structure):
+        raise DataFileError(
+            f"{what} has a dotted key of {m.group().count('.') + 1} parts "
+            f"(starting {m.group()[:20]!r}); attenfit reads at most {MAX_DEPTH}"
+        )
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise DataFileError(f"{what}: TOML syntax error: {exc}") from None
+    except RecursionError:
+        raise DataFileError(f"{what} nests too deeply to read") from None
+
+
+# ----------------------------------------------------------------------------- npz archives
+#: The dtypes an attenfit archive holds: floats (either byte order) and the header's text.
+_NPZ_KINDS = {"f": (4, 8), "U": None}
+_NPY_HEADERS = {
+    (1, 0): np.lib.format.read_array_header_1_0,
+    (2, 0): np.lib.format.read_array_header_2_0,
+}
+
+
+def _open_regular(path: Path, what: str) -> int:
+    """A file descriptor of the regular file `path` (see `read_bytes`), never blocking."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except FileNotFoundError:
+        raise DataFileError(f"{what} does not exist") from None
+    except OSError as exc:
+        raise DataFileError(f"{what} cannot be read: {exc.strerror}") from None
+    st = os.fstat(fd)
+    if not stat.S_ISREG(st.st_mode):
+        os.close(fd)
+        kind = "a folder" if stat.S_ISDIR(st.st_mode) else "a pipe, device or socket"
+        raise DataFileError(f"{what} is not a regular file ({kind})")
+    return fd
+
+
+def read_npz(
+    path: str | os.PathLike,
+    what: str,
+    limit: int,
+    noun: str = ".npz archive",
+    names: tuple[str, ...] | None = None,
+) -> dict[str, np.ndarray]:
+    """The arrays of the `.npz` archive `path` (those in `names`, if given), checked before
+    any is allocated.
+
+    Accepts only float32/float64 arrays (converted to the machine's byte order) and text;
+    refuses an archive whose members declare more than `limit` bytes in all, or whose
+    arrays' headers disagree with their members' declared sizes (a zip bomb, a truncated or
+    doctored member), with a `DataFileError` saying "`what` is not a readable `noun`".
+    """
+    fd = _open_regular(Path(path), what)
+    with os.fdopen(fd, "rb") as fh:
+        if fh.read(4) != b"PK\x03\x04":  # np.load would call other bytes a pickle
+            raise DataFileError(f"{what} is not a readable {noun}: not a zip archive")
+        fh.seek(0)
+        try:
+            archive = zipfile.ZipFile(fh)
+        except (zipfile.BadZipFile, OSError, ValueError) as exc:
+            raise DataFileError(f"{what} is not a readable {noun}: {exc}") from None
+        with archive:
+            members = archive.infolist()
+            if names is not None:
+                members = [m for m in members if m.filename.removesuffix(".npy") in names]
+            total = sum(m.file_size for m in members)
+            if total > limit:
+                raise DataFileError(
+                    f"{what} unpacks to {_mib(total)}, over the {_mib(limit)} allowed "
+                    "(the memory budget, ATTENFIT_MEMORY_BUDGET)"
+                )
+            return {
+                m.filename.removesuffix(".npy"): _read_member(
+                    archive, m, f"{what}, member {m.filename!r}", noun
+                )
+                for m in members
+            }
+
+
+def _read_member(archive: zipfile.ZipFile, m: zipfile.ZipInfo, where: str, noun: str) -> np.ndarray:
+    try:
+        with archive.open(m) as f:
+            version = np.lib.format.read_magic(f)
+            if version not in _NPY_HEADERS:
+                raise DataFileError(f"{where} has .npy format version {version}; reads 1.0, 2.0")
+            shape, fortran, dtype = _NPY_HEADERS[version](f)
+            if dtype.hasobject or dtype.kind not in _NPZ_KINDS:
+                raise DataFileError(f"{where} holds {dtype} values; attenfit reads float arrays")
+            sizes = _NPZ_KINDS[dtype.kind]
+            if sizes is not None and dtype.itemsize not in sizes:
+                raise DataFileError(f"{where} holds {dtype}; attenfit reads float32 and float64")
+            count = math.prod(shape)
+            if count * dtype.itemsize + f.tell() != m.file_size:
+                raise DataFileError(
+                    f"{where} declares {shape} {dtype} values, which do not fill its "
+                    f"{m.file_size:,} bytes"
+                )
+            data = f.read(count * dtype.itemsize)
+    except DataFileError:
+        raise
+    except Exception as exc:  # a damaged member raises anything (zlib.error, EOFError, ...)
+        raise DataFileError(
+            f"{where.split(', member')[0]} is not a readable {noun}: {type(exc).__name__}: {exc} "
+            f"(member {m.filename!r})"
+        ) from None
+    if len(data) != count * dtype.itemsize:
+        raise DataFileError(f"{where} is truncated")
+    arr = np.frombuffer(data, dtype=dtype).reshape(shape, order="F" if fortran else "C")
+    return arr.astype(dtype.newbyteorder("="), copy=False)
