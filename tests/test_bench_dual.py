@@ -82,7 +82,5 @@ def test_float64_trace_keeps_constants_exact():
         if not hasattr(a, "id")
     }
     assert np.pi / 2 in consts and 1e-4 in consts
-    consts32 = {
-        a.value for op in trace(af.Godot()).ops for a in op.args if not hasattr(a, "id")
-    }
+    consts32 = {a.value for op in trace(af.Godot()).ops for a in op.args if not hasattr(a, "id")}
     assert 1e-4 not in consts32 and float(np.float32(1e-4)) in consts32
