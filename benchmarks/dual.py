@@ -180,7 +180,7 @@ class DualProgram:
         return f"v{a.id}"
 
     def _compile(self, free_ids: list[int], tangents: bool):
-        lines = [f"def run(P, F, C, n):", f"    ({', '.join(f'v{i}' for i in self.inputs)},) = F"]
+        lines = ["def run(P, F, C, n):", f"    ({', '.join(f'v{i}' for i in self.inputs)},) = F"]
         if not self.inputs:
             lines.pop()
         tan: dict[int, str] = {}
@@ -208,7 +208,7 @@ class DualProgram:
             lines.append(f"    return {res} + zeros(n), {jac}")
         namespace = dict(_NAMESPACE)
         self.source = "\n".join(lines)  # the last function compiled, for reading
-        exec(self.source, namespace)  # noqa: S102  (our own generated numpy code)
+        exec(self.source, namespace)
         return namespace["run"]
 
     def bind(self, d: np.ndarray, values: Mapping[str, Any]) -> _Bound:
@@ -221,7 +221,6 @@ class DualProgram:
             flat = np.asarray(values[name], np.float64).reshape(-1)
             for var, x in zip(vars_, flat, strict=True):
                 env[var.id] = np.full(1, x)
-        consts: list[Any] = []
 
         def get(a: Any) -> Any:
             if isinstance(a, Const):
@@ -233,8 +232,8 @@ class DualProgram:
             for op in self.fixed_ops:
                 names = [f"a{i}" for i in range(len(op.args))]
                 code = _value(op.prim, op.out.dtype, names)
-                env[op.out.id] = eval(code, namespace, dict(zip(names, map(get, op.args))))  # noqa: S307
-        del consts
+                local = dict(zip(names, map(get, op.args), strict=True))
+                env[op.out.id] = eval(code, namespace, local)
         return _Bound(self, tuple(env[i] for i in self.inputs), len(d))
 
 
