@@ -65,6 +65,22 @@ if TYPE_CHECKING:  # the public API, imported on first use (`__getattr__` reads 
     from ._curves import Yuksel as Yuksel
     from ._curves import YukselAdhoc as YukselAdhoc
 
+    # Area-light models: irradiance from the receiver's geometry (docs/area.md).
+    from . import area as area
+    from ._curves import AreaModel as AreaModel
+    from ._curves import PointLight as PointLight
+    from ._curves import SnyderSphere as SnyderSphere
+    from ._curves import FrostbiteDisk as FrostbiteDisk
+    from ._curves import VectorDisk as VectorDisk
+    from ._curves import UnrealWrap as UnrealWrap
+    from ._curves import GodotWrap as GodotWrap
+    from ._curves import HdrpSphere as HdrpSphere
+    from ._curves import MrpSphere as MrpSphere
+    from ._curves import get_area_model as get_area_model
+    from ._curves import list_area_models as list_area_models
+    from ._truth import area_inputs as area_inputs
+    from ._truth import area_irradiance as area_irradiance
+
     # Ground truth: emitters, exact irradiance, quadrature, datasets.
     from . import emitters as emitters
     from . import quadrature as quadrature

@@ -8,12 +8,14 @@ temporary name and moved into place the same way.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import shutil
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from . import _input
 from ._errors import BadValueError, OutputExistsError
 
 __all__ = ["atomic_dir", "atomic_write", "check_output_path"]
@@ -58,6 +60,9 @@ def check_output_path(
     parent is missing, is a file, or is not writable.
     """
     path = Path(path)
+    if path.is_symlink():  # write through the link to what it names (and never replace it)
+        path = Path(os.path.realpath(path))
+    _check_not_input(path, folder)
     parent = path.parent if str(path.parent) else Path(".")
     for ancestor in [parent, *parent.parents]:
         if ancestor.exists() and not ancestor.is_dir():
@@ -65,9 +70,13 @@ def check_output_path(
                 f"output path {str(path)!r} sits under {str(ancestor)!r}, which is a file"
             )
     if not parent.exists():
-        if folder:
-            return path  # a report folder's parents are created on commit
-        raise BadValueError(f"output folder {str(parent)!r} does not exist (for {str(path)!r})")
+        if not folder:
+            raise BadValueError(f"output folder {str(parent)!r} does not exist (for {str(path)!r})")
+        # a report folder's parents are created on commit: the first that exists must let us
+        base = next((a for a in parent.parents if a.exists()), Path("."))
+        if not os.access(base, os.W_OK | os.X_OK):
+            raise BadValueError(f"output folder {str(base)!r} is not writable (for {str(path)!r})")
+        return path
     if not os.access(parent, os.W_OK):
         raise BadValueError(f"output folder {str(parent)!r} is not writable")
     if path.exists():
@@ -82,6 +91,18 @@ def check_output_path(
             if not force:
                 raise OutputExistsError(f"output file {str(path)!r} exists", "overwrite it")
     return path
+
+
+def _check_not_input(path: Path, folder: bool) -> None:
+    """Refuse an output that is (or, a folder, holds) a file this command has read."""
+    out = os.path.realpath(path)
+    for src in _input.inputs():
+        if src == out or (folder and src.startswith(out.rstrip(os.sep) + os.sep)):
+            what = "is" if src == out else "holds"
+            raise BadValueError(
+                f"output {str(path)!r} {what} an input of this command ({src!r}); "
+                "write the output elsewhere"
+            )
 
 
 def atomic_write(
@@ -113,11 +134,21 @@ def atomic_write(
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
         check_pending()
-        if path.exists() and not force:  # appeared while we were writing
-            raise OutputExistsError(
-                f"output file {str(path)!r} appeared while writing; not overwritten"
-            )
-        os.replace(tmp_path, path)
+        if force:
+            os.replace(tmp_path, path)
+        else:  # a link fails if the name exists: nothing that appeared meanwhile is replaced
+            try:
+                os.link(tmp_path, path)
+            except FileExistsError:
+                raise OutputExistsError(
+                    f"output file {str(path)!r} appeared while writing; not overwritten"
+                ) from None
+            except OSError:  # a filesystem without hard links: check, then rename
+                if path.exists():
+                    raise OutputExistsError(
+                        f"output file {str(path)!r} appeared while writing; not overwritten"
+                    ) from None
+                os.replace(tmp_path, path)
     finally:
         with contextlib.suppress(FileNotFoundError):
             tmp_path.unlink()
@@ -160,10 +191,12 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
     """
     path = check_output_path(path, force=force, folder=True)
     path.parent.mkdir(parents=True, exist_ok=True)
+    _check_not_input(path, True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
     os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
     try:
         yield tmp
+        check_output_path(path, force=force, folder=True)  # again: inputs read, rivals done
         old = None
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")
@@ -172,7 +205,16 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
         with _signals_deferred():  # Ctrl-C between the two renames would hide the old folder
             if old is not None:
                 os.replace(path, old)
-            os.replace(tmp, path)
+            try:  # a rename onto a folder that is not empty fails: a rival's report stays
+                os.rename(tmp, path)
+            except OSError as exc:
+                if old is not None:
+                    os.replace(old, path)
+                if exc.errno in (errno.ENOTEMPTY, errno.EEXIST):
+                    raise OutputExistsError(
+                        f"output folder {str(path)!r} appeared while writing; not replaced"
+                    ) from None
+                raise
             if old is not None:
                 shutil.rmtree(old, ignore_errors=True)
     finally:

@@ -10,6 +10,7 @@ file or header needs more than `MAX_DEPTH` levels, and TOML's dotted keys are bo
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -17,6 +18,7 @@ import re
 import stat
 import tomllib
 import zipfile
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +26,17 @@ import numpy as np
 
 from ._errors import DataFileError
 
-__all__ = ["LIMITS", "MAX_DEPTH", "load_json", "load_toml", "read_bytes", "read_npz", "read_text"]
+__all__ = [
+    "LIMITS",
+    "MAX_DEPTH",
+    "check_file",
+    "inputs",
+    "load_json",
+    "load_toml",
+    "read_bytes",
+    "read_npz",
+    "read_text",
+]
 
 #: Size limits per kind of input (bytes). A real scene file is a few kB (a list of 4,096
 #: receiver points, the most a scene takes, is about 200 kB); a fit file is a few kB a fit.
@@ -33,6 +45,8 @@ LIMITS = {
     "fits": 64 << 20,
     "json": 64 << 20,
     "source": 1 << 20,
+    # USD and glTF scenes with their meshes (and a glTF's .bin buffers), per file
+    "mesh_scene": 256 << 20,
 }
 #: The deepest nesting of arrays and tables any attenfit input has is 4; 32 is generous.
 MAX_DEPTH = 32
@@ -49,25 +63,9 @@ def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
     `DataFileError` for a missing, unreadable or special file (FIFO, device, folder) and
     for one over `limit`, before reading it.
     """
-    path = Path(path)
+    fd = _open_regular(Path(path), what)
     try:
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except FileNotFoundError:
-        raise DataFileError(f"{what} does not exist") from None
-    except IsADirectoryError:
-        raise DataFileError(f"{what} is a folder, not a file") from None
-    except OSError as exc:
-        raise DataFileError(f"{what} cannot be read: {exc.strerror}") from None
-    try:
-        st = os.fstat(fd)
-        if stat.S_ISDIR(st.st_mode):
-            raise DataFileError(f"{what} is a folder, not a file")
-        if not stat.S_ISREG(st.st_mode):
-            raise DataFileError(f"{what} is not a regular file (a pipe, device or socket)")
-        if st.st_size > limit:
-            raise DataFileError(
-                f"{what} is {_mib(st.st_size)}, over the {_mib(limit)} an input of its kind may be"
-            )
+        _check_size(os.fstat(fd).st_size, what, limit)
         chunks, total = [], 0
         while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
             chunks.append(chunk)
@@ -150,19 +148,65 @@ _NPY_HEADERS = {
 
 
 def _open_regular(path: Path, what: str) -> int:
-    """A file descriptor of the regular file `path` (see `read_bytes`), never blocking."""
+    """A file descriptor of the regular file `path`, never blocking (a FIFO would), recorded
+    in `inputs()`. Raises `DataFileError` for a missing, unreadable or special file."""
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except FileNotFoundError:
         raise DataFileError(f"{what} does not exist") from None
+    except IsADirectoryError:
+        raise DataFileError(f"{what} is a folder, not a file") from None
     except OSError as exc:
         raise DataFileError(f"{what} cannot be read: {exc.strerror}") from None
     st = os.fstat(fd)
     if not stat.S_ISREG(st.st_mode):
         os.close(fd)
-        kind = "a folder" if stat.S_ISDIR(st.st_mode) else "a pipe, device or socket"
-        raise DataFileError(f"{what} is not a regular file ({kind})")
+        if stat.S_ISDIR(st.st_mode):
+            raise DataFileError(f"{what} is a folder, not a file")
+        raise DataFileError(f"{what} is not a regular file (a pipe, device or socket)")
+    if _INPUTS is not None:
+        _INPUTS.add(os.path.realpath(path))
     return fd
+
+
+#: The files the running command has read (real paths), inside `tracking()`; else None.
+_INPUTS: set[str] | None = None
+
+
+@contextlib.contextmanager
+def tracking() -> Iterator[None]:
+    """Record the files read inside the block: one command's inputs, which its outputs
+    may not replace (`inputs()`; the CLI runs each verb inside one)."""
+    global _INPUTS
+    saved, _INPUTS = _INPUTS, set()
+    try:
+        yield
+    finally:
+        _INPUTS = saved
+
+
+def inputs() -> frozenset[str]:
+    """The real paths of the files the running command has read (empty outside `tracking`)."""
+    return frozenset(_INPUTS or ())
+
+
+def check_file(path: str | os.PathLike, what: str, limit: int) -> int:
+    """The size of the regular file `path`, checked as `read_bytes` checks it (missing,
+    special or over `limit`: `DataFileError`), for a file a library then opens by name."""
+    fd = _open_regular(Path(path), what)
+    try:
+        size = os.fstat(fd).st_size
+    finally:
+        os.close(fd)
+    _check_size(size, what, limit)
+    return size
+
+
+def _check_size(size: int, what: str, limit: int) -> None:
+    if size > limit:
+        raise DataFileError(
+            f"{what} is {_mib(size)}, over the {_mib(limit)} an input of its kind may be"
+        )
 
 
 def read_npz(

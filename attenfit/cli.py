@@ -8,14 +8,20 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import os
 import sys
+import traceback
 from collections.abc import Sequence
 
-from . import _progress
+from . import _input, _progress
 from ._cli import _cache, _export, _families, _fit, _report, _scene, _truth
 from ._cli._common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_NOT_CONVERGED, EXIT_OK
 from ._errors import AttenfitError, OutputExistsError
 from ._version import __version__
+
+#: Set (to anything) to print the traceback of an internal error, for a bug report.
+TRACEBACK_ENV = "ATTENFIT_TRACEBACK"
 
 __all__ = [
     "EXIT_BAD_INPUT",
@@ -110,13 +116,17 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _main(argv: Sequence[str] | None) -> int:
+    for stream in (sys.stdout, sys.stderr):  # a file name that is not UTF-8 prints escaped
+        with contextlib.suppress(AttributeError, ValueError):
+            stream.reconfigure(errors="backslashreplace")
     parser = get_parser()
     try:
         args = parser.parse_args(argv)
         if not getattr(args, "run", None):
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
-        with _progress.active(_progress.Progress(f"attenfit {args.verb}", quiet=args.quiet)):
+        progress = _progress.Progress(f"attenfit {args.verb}", quiet=args.quiet)
+        with _progress.active(progress), _input.tracking():  # outputs may not replace inputs
             return int(args.run(args))
     except _UsageError as exc:
         print(str(exc).replace("\n", " "), file=sys.stderr)
@@ -136,8 +146,15 @@ def _main(argv: Sequence[str] | None) -> int:
         return 128 + int(signum)
     except BrokenPipeError:
         return EXIT_OK
-    except Exception as exc:  # a bug: say what, in one line, without a traceback
-        print(f"attenfit: internal error: {type(exc).__name__}: {exc}", file=sys.stderr)
+    except Exception as exc:  # a bug: say what, in one line; the traceback when asked
+        if os.environ.get(TRACEBACK_ENV):
+            traceback.print_exc()
+        print(
+            f"attenfit: internal error (a bug in attenfit, not in your input; please report it "
+            f"with the command, and {TRACEBACK_ENV}=1 for the traceback): "
+            f"{type(exc).__name__}: {exc}",
+            file=sys.stderr,
+        )
         return EXIT_ERROR
 
 

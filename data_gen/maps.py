@@ -61,9 +61,10 @@ def render_plane_map(
 ) -> PlaneMap:
     """Render the irradiance (W m^-2) on `plane` lit by `lights`, one receiver per pixel centre.
 
-    The plane occludes (it is in the scene); receivers inside a sphere light are refused, so a
-    sphere crossing the plane needs its footprint outside the pixel centres (or a resolution
-    that avoids it). Same `seed` and variant, same image.
+    The plane occludes (it is in the scene); receivers inside a light, or nearer its surface
+    than 2^-16 of the scene's scale (`data_gen.clearance`), are refused, so a sphere crossing
+    or touching the plane needs its footprint outside the pixel centres (or a resolution that
+    avoids it). Same `seed` and variant, same image.
     """
     points, normals = plane_grid(plane, resolution)
     est = estimate_detail(

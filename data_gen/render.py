@@ -108,8 +108,8 @@ def mitsuba_provenance(
             "(test_visibility=True); uniforms from numpy SeedSequence([seed, receiver, component])"
         ),
         "stderr": (
-            "Monte Carlo standard error combined in quadrature with float32 rounding bounds "
-            "b / sqrt(3) (data_gen.estimate)"
+            "Monte Carlo standard error combined in quadrature with float32 bias bounds "
+            "b / sqrt(3) where they are real and a rare-hit floor (data_gen.estimate)"
         ),
         "max_relative_bias_bound": float(rel.max()) if rel.size else 0.0,
         "occluder_plane": _plane_dict(plane),

@@ -210,12 +210,14 @@ class Component:
     `cone` is True when every emitter in it is a sphere (Mitsuba samples the cone a sphere
     subtends, so light sampling alone has bounded values). Samples landing where
     `clip = (point, axis)` says `(x - point) . axis > 0` are discarded: the inner half of a
-    capsule's end sphere, which is not part of the capsule's surface.
+    capsule's end sphere, which is not part of the capsule's surface. `spheres` lists the
+    (centre, radius) of the emitting spheres of a `cone` component (empty otherwise).
     """
 
     scene: dict
     clip: tuple[Vec3, Vec3] | None
     cone: bool
+    spheres: tuple[tuple[Vec3, float], ...] = ()
 
 
 def plane_axes(plane: Plane) -> tuple[np.ndarray, np.ndarray]:
@@ -267,6 +269,7 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
         scene: dict = {"type": "scene"}
         clip = None
         cone = True
+        spheres = []
         for sh in shapes:
             if sh.only_in is not None and sh.only_in != role:
                 continue
@@ -277,10 +280,12 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
                 d["emitter"] = _emitter(sh.radiance)
                 clip = sh.clip if sh.clip is not None else clip
                 cone = cone and d["type"] == "sphere"
+                if d["type"] == "sphere":
+                    spheres.append((tuple(d["center"]), float(d["radius"])))
             scene[sh.key] = d
         if plane is not None:
             scene["plane"] = plane_dict(mi, plane)
-        components.append(Component(scene, clip, cone))
+        components.append(Component(scene, clip, cone, tuple(spheres) if cone else ()))
     return components
 
 

@@ -91,6 +91,11 @@ def report_summary(inputs: Inputs) -> str:
     return inputs.report.summary_markdown().rstrip()
 
 
+def report_decision(inputs: Inputs) -> str:
+    """The default report's decision table, "Which curve for which light" (README, report.md)."""
+    return inputs.report.decision_markdown().rstrip()
+
+
 def report_findings(inputs: Inputs) -> str:
     """The numbers behind the seeds' claims, and the windows table (docs/report.md)."""
     rep = inputs.report
@@ -327,6 +332,8 @@ class Section:
 
 #: Every generated section: name -> (page, generator).
 SECTIONS = {
+    "report-decision": Section("README.md", report_decision),
+    "report-decision-doc": Section("docs/report.md", report_decision),
     "report-summary": Section("README.md", report_summary),
     "report-findings": Section("docs/report.md", report_findings),
     "published-rules": Section("docs/report.md", published_rules),

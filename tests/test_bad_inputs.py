@@ -707,7 +707,7 @@ API_CASES = [
         "load-folder",
         lambda f: af.Dataset.load(f.folder),
         DataFileError,
-        "a_folder.npz' is not a regular file (a folder)",
+        "a_folder.npz' is a folder, not a file",
     ),
     Case(
         "load-zero-bytes",

@@ -281,7 +281,7 @@ def test_attenfit_does_not_import_data_gen_or_mitsuba():
 # ----------------------------------------------------------------------------- validation
 def test_receivers_inside_a_sphere_are_refused():
     light = SphereLight((0.0, 0.0, 0.0), 1.0, 1.0)
-    with pytest.raises(BadValueError, match=r"points\[1\] is inside or on a light"):
+    with pytest.raises(BadValueError, match=r"points\[1\] is inside or on a sphere light"):
         estimate_detail(
             [light],
             np.array([[0, 0, 2.0], [0, 0, 0.5]]),
@@ -313,7 +313,7 @@ def test_bad_arguments_name_the_value(kwargs, message):
 
 
 def test_receivers_on_a_disk_are_refused():
-    with pytest.raises(BadValueError, match=r"points\[0\] lies on a disk light"):
+    with pytest.raises(BadValueError, match=r"points\[0\] is inside or on a disk light"):
         estimate_detail(
             [DiskLight((0, 0, 0), (1, 0, 0), 0.5, 1.0)],
             np.array([[0.0, 0.0, -0.5]]),

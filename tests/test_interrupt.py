@@ -128,6 +128,7 @@ def test_report_interrupted_keeps_previous_report(tmp_path, sig, code, word):
     folder.mkdir()
     (folder / "report.md").write_text("previous report\n")
     args = ["report", "--families", "inverse_square", "--emitters", "sphere", "--no-fit"]
+    args += ["--no-mitsuba"]
     proc = _start([*args, "--out", "rep", "--force"], tmp_path)
     # the report is being written into its temporary folder: interrupt it there
     _wait_for(lambda: any(TMP_MARK in p.name for p in tmp_path.iterdir()), proc)

@@ -18,7 +18,15 @@ from attenfit._report import _figures as _report_figures
 from attenfit.cli import main
 from attenfit.report import PUBLISHED_CUTOFF, Report, build_report, published_params
 
-FAMILIES = ["inverse_square", "yuksel", "yuksel_adhoc", "disk_facing", "unreal_window"]
+FAMILIES = [
+    "inverse_square",
+    "yuksel",
+    "yuksel_adhoc",
+    "disk_facing",
+    "unreal_window",
+    "just_cause_2",
+    "gltf_range",
+]
 R = 0.1  # the default emitters' radius (m)
 
 
@@ -144,6 +152,7 @@ def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys)
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "yuksel_adhoc", "inverse_square"]
     argv += ["--emitters", "disk", "--no-fit", "--sweep-n", "24", "--plane-px", "12", "--svg"]
+    argv += ["--no-mitsuba"]  # the witness has its own test (tests/test_witness.py)
     assert main(argv) == 0
     err = capsys.readouterr().err
     # stderr is not a terminal here: only the summary line
@@ -251,6 +260,7 @@ def test_datasets_become_configurations(tmp_path, capsys, monkeypatch):
     out = tmp_path / "rep"
     argv = ["report", "--out", str(out), "--families", "inverse_square", "--emitters", "disk"]
     argv += ["--no-fit", "--sweep-n", "24", "--plane-px", "12", "--mitsuba", str(path)]
+    argv += ["--no-mitsuba"]
     monkeypatch.setattr(sys.stderr, "isatty", lambda: True)  # stage lines, as on a terminal
     assert main(argv) == 0
     assert "] dataset: plane" in capsys.readouterr().err
@@ -279,3 +289,145 @@ def test_published_figures_drawn_during_the_fits_are_the_ones_written(tmp_path):
     assert "sphere_attenuation_fitted" in written and "cost_vs_error" not in written  # no costs
     for key in written:
         assert f"figures/{key}.png" in md
+
+
+# ----------------------------------------------------------------------------- issue 19
+def test_ranges_stay_fixed_and_only_shape_parameters_are_fitted(report):
+    for fam, rng in (
+        ("unreal_window", "r_max"),
+        ("just_cause_2", "r_max"),
+        ("gltf_range", "range"),
+    ):
+        for cfg in ("sphere", "disk"):
+            pub = report.result(fam, cfg, "published")
+            fit = report.result(fam, cfg, "fitted")
+            assert fit["status"] == "ok"
+            assert (
+                fit["params"][rng]
+                == pub["params"][rng]
+                == pytest.approx(R / math.sqrt(PUBLISHED_CUTOFF))
+            )
+    # glTF's only parameter is its range: nothing to fit, fitted = published, and said so
+    fit = report.result("gltf_range", "sphere", "fitted")
+    assert fit["params"] == report.result("gltf_range", "sphere")["params"]
+    assert "fitted = published" in fit["note"]
+    assert report.result("just_cause_2", "disk", "fitted")["fit"]["free"] == ["scale"]
+
+
+def test_three_receiver_sets_judge_every_configuration(report):
+    from attenfit._report._configs import FLOOR_HEIGHTS, FLOOR_N, RANDOM_N
+
+    for row in report.results:
+        if row["status"] == "ok":
+            assert set(row["receivers"]) == {"facing", "floor", "random"}
+    # a sphere above every floor receiver's horizon is exactly a point light
+    # (shared/reference/groundtruth.md §2.1): inverse-square is exact on the floors
+    rx = report.result("inverse_square", "sphere")["receivers"]
+    assert rx["floor"]["overall"]["n"] == 2 * FLOOR_HEIGHTS * FLOOR_N
+    assert rx["floor"]["overall"]["max_abs"] < 1e-12
+    assert rx["facing"]["overall"]["max_abs"] < 1e-12
+    # random orientations: part of the sphere sinks below a tilted receiver's horizon near it
+    assert rx["random"]["overall"]["n"] == RANDOM_N and rx["random"]["overall"]["max_abs"] > 0.05
+    # the facing disk is 1/(d^2 + r^2) on its axis (Howell B-12): disk_facing is exact there
+    assert report.result("disk_facing", "disk")["receivers"]["facing"]["overall"]["max_abs"] < 1e-12
+    # the summary shows all three sets and the floor energy of both lights
+    head = report.summary_markdown().splitlines()[0]
+    for c in ("sphere", "disk"):
+        for s in ("facing sweep", "floor", "random orientations", "floor energy / truth"):
+            assert f"{c}: {s}" in head
+
+
+def test_a_fit_worse_than_published_is_explained_next_to_it(report):
+    summary = report.summary_markdown()
+    marks = [int(m) for m in __import__("re").findall(r"\[(\d+)\]", summary)]
+    notes = [line for line in summary.splitlines() if line[:1].isdigit() and ". `" in line[:6]]
+    assert sorted(set(marks)) == list(range(1, len(notes) + 1))
+    # each explained cell really is worse fitted than published
+    for line in notes:
+        a, b = line.split("(")[1].split(")")[0].split(" → ")
+        assert float(b.rstrip("%")) >= float(a.rstrip("%"))
+
+
+def test_parameters_as_a_function_of_the_light_radius():
+    from attenfit._report._decide import params_in_r
+
+    assert params_in_r("yuksel_adhoc", {"r": math.sqrt(2) * R}, R) == "r′ = √2 r"
+    assert params_in_r("unreal_epsilon", {"eps": 0.04 * R * R}, R) == "eps = 0.04 r²"
+    assert params_in_r("unreal_epsilon", {"eps": 1e-4}, R, absolute=("eps",)) == "eps = 0.0001 m²"
+    # not scale-covariant (a fixed 1e-4 m clamp): in metres
+    assert params_in_r("godot", {"a": 1.0, "r_max": 3.0}, R) == "a = 1, r_max = 3 m"
+
+
+def test_the_decision_table_picks_the_cheapest_within_tolerance(report):
+    import dataclasses
+
+    from attenfit._report import _decide
+
+    costs = {"inverse_square": 2, "yuksel": 4, "yuksel_adhoc": 2, "disk_facing": 2,
+             "unreal_window": 8, "just_cause_2": 6, "gltf_range": 7}  # fmt: skip
+    rep = dataclasses.replace(report, costs={k: {"shader_cost": v} for k, v in costs.items()})
+    entries = rep.decisions()
+    assert len(entries) == 2 * 3 * len(_decide.TOLERANCES)
+    far = {e["tolerance"]: e for e in entries if e["config"] == "sphere" and e["band"] == "far"}
+    # beyond 10 r a sphere is a point light but for the horizon of tilted receivers, which
+    # clips less than 1% of a facing receiver's irradiance there: inverse-square, cost 2
+    assert all(e["model"] == "inverse_square" and e["cost"] == 2 for e in far.values())
+    assert far[0.01]["error"] < 0.01
+    md = rep.decision_markdown()
+    assert md.count("\n| sphere |") == 3 and "| 1% to 20% | `inverse_square` published" in md
+
+    # a registered source (an area model) fills the cells no distance curve meets
+    area = _decide.Candidate(
+        model="area_stub", mode="fitted", params="r′ = r", cost=50.0,
+        errors={"contact": 0.0, "near": 0.0, "far": 0.0},
+        worst={"contact": None, "near": None, "far": None}, kind="area model",
+    )  # fmt: skip
+    none_before = sum(e["model"] is None for e in entries)
+    assert none_before > 0  # near a disk no distance curve is within 1% on the floor
+    _decide.register_candidate_source(lambda cfg, rep: [area])
+    try:
+        after = rep.decisions()
+    finally:
+        _decide._SOURCES.clear()
+    assert sum(e["model"] is None for e in after) == 0
+    assert sum(e["model"] == "area_stub" for e in after) == none_before
+    assert "(area model)" in decision_markdown_of(after)
+
+
+def decision_markdown_of(entries):
+    from attenfit._report._decide import decision_markdown
+
+    return decision_markdown(entries)
+
+
+def test_error_plot_marks_clipped_points():
+    from attenfit import plots
+
+    d = np.geomspace(1e-3, 10.0, 50)
+    truth = 1 / (d**2 + 0.01)
+    _, ax = plots.plot_relative_error(d, {"a": 1 / d**2, "b": truth}, truth, r=0.1)
+    assert ax.get_ylim() == pytest.approx((1e-3, 10.0))
+    markers = {ln.get_marker() for ln in ax.get_lines()}
+    assert {"^", "v"} <= markers  # 1/d^2 runs off the top near the light, b is exact
+    assert "d / r" in ax.get_xlabel() and "0.1 m" in ax.get_xlabel()
+
+
+def test_the_witness_section_shows_z_scores(tmp_path):
+    # a stand-in Monte Carlo dataset: the exact values plus known noise of known stderr
+    from attenfit import Dataset, SphereEmitter, irradiance, plane_receivers
+
+    sphere = SphereEmitter(center=(0.0, 0.0, 0.0), radius=R)
+    exact = plane_receivers(sphere, R, 4 * R, n=9, dtype="float64")
+    E = np.asarray(exact.E, np.float64)
+    z = np.random.default_rng(0).normal(size=E.shape)
+    se = 0.01 * E
+    mc = Dataset(sphere, exact.points, exact.normals, E - z * se, se, {"generator": "stub-mc"})
+    rep = build_report(families=["inverse_square"], emitters=[], datasets={"mc": mc},
+                       fitted=False, cost=False)  # fmt: skip
+    (w,) = rep.witnesses()
+    assert w["median_abs_z"] == pytest.approx(float(np.median(np.abs(z))), rel=1e-9)
+    assert "## Independent witness" in rep.markdown()
+    assert irradiance is not None
+    out = rep.write(tmp_path / "w")
+    assert (out / "figures" / "mc_witness_z.png").is_file()
+    assert "figures/mc_witness_z.png" in (out / "report.md").read_text()

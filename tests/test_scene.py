@@ -59,7 +59,13 @@ def test_good_scene_parses_and_round_trips(tmp_path):
 
 def test_example_scenes_parse():
     names = sorted(p.name for p in EXAMPLES.glob("*.toml"))
-    assert names == ["room.toml", "short_range.toml", "spotlight.toml", "vpl_on_surface.toml"]
+    assert names == [
+        "downlight.toml",
+        "room.toml",
+        "short_range.toml",
+        "spotlight.toml",
+        "vpl_on_surface.toml",
+    ]
     for p in EXAMPLES.glob("*.toml"):
         assert Scene.load(p).source == p.name
 

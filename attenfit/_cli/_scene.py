@@ -1,4 +1,5 @@
-"""`attenfit scene`: what a scene file needs, and the cheapest family that gives it."""
+"""`attenfit scene`: what a scene file needs, and the cheapest family that gives it. A TOML
+scene (docs/scenes.md) or a USD/glTF file (docs/usd-gltf.md), answered per light."""
 
 from __future__ import annotations
 
@@ -6,32 +7,67 @@ import argparse
 import json
 
 from .. import _progress
+from .._errors import BadValueError
 from ._common import EXIT_OK
+
+_FILE_ONLY = ("side", "tolerance", "precision", "threshold", "samples", "radius", "write_back")
 
 
 def add_parser(sub, parents: list) -> None:
+    from .._scenes._engine import ENGINES
+
     p = sub.add_parser(
         "scene",
         parents=parents,
         help="fit what a scene file needs and recommend the cheapest family",
         description="Generate ground truth only for the scene's lights and receivers, fit every "
         "family its constraints allow, and recommend the cheapest within its tolerance. "
-        "Exit 0 even when no family meets the tolerance (the output says so); 2 for a bad "
-        "scene file.",
+        "A USD (.usd, .usda, .usdc) or glTF (.gltf, .glb) file is answered per light, "
+        "receivers sampled on its meshes. Exit 0 even when no family meets the tolerance "
+        "(the output says so); 2 for a bad scene file.",
     )
-    p.add_argument("file", metavar="FILE", help="a TOML scene file (docs/scenes.md)")
+    p.add_argument(
+        "file",
+        metavar="FILE",
+        help="a TOML scene file (docs/scenes.md), or a USD or glTF scene (docs/usd-gltf.md)",
+    )
     p.add_argument(
         "--out",
         default=None,
         metavar="DIR",
         help="write recommendation.md/.json, the winner's shaders and errors.png into DIR",
     )
-    p.add_argument("--force", action="store_true", help="replace an existing non-empty DIR")
+    p.add_argument(
+        "--force", action="store_true", help="replace an existing DIR or write-back file"
+    )
     p.add_argument("--json", action="store_true", help="print the recommendation as JSON")
     p.add_argument(
         "--measure",
         action="store_true",
         help="also time each candidate on this machine (reported beside its shader cost)",
+    )
+    p.add_argument(
+        "--engine",
+        choices=tuple(ENGINES),
+        default=None,
+        help="only what this engine can express; per light, the engine's own properties",
+    )
+    g = p.add_argument_group("USD and glTF scenes")
+    g.add_argument("--side", metavar="TOML", help="a side file of options (docs/usd-gltf.md)")
+    g.add_argument("--tolerance", type=float, help="largest relative error (default 0.05)")
+    g.add_argument("--precision", choices=("float64", "float32", "float16"), default=None)
+    g.add_argument(
+        "--threshold",
+        type=float,
+        help="visibility threshold (absolute irradiance): choose each light's smallest range",
+    )
+    g.add_argument("--samples", type=int, help="receivers per light (default 4096)")
+    g.add_argument("--radius", type=float, help="radius (m) of every light the file gives none")
+    g.add_argument("--strict", action="store_true", help="refuse rect, dome, cylinder lights")
+    g.add_argument(
+        "--write-back",
+        metavar="OUT",
+        help="write a copy of the scene with the answers (OUT.gltf or OUT.usda)",
     )
     p.set_defaults(run=_run_scene)
 
@@ -40,14 +76,33 @@ def _run_scene(args: argparse.Namespace) -> int:
     from .._atomic import check_output_path
     from .._fit import enable_persistent_cache
     from .._scenes import Scene, recommend
+    from .._scenes._files import engine_scene, is_mesh_scene
 
-    scene = Scene.load(args.file)
+    mesh = is_mesh_scene(args.file)
+    if not mesh:
+        given = [k for k in _FILE_ONLY if getattr(args, k) is not None] + (
+            ["strict"] if args.strict else []
+        )
+        if given:
+            raise BadValueError(
+                f"--{given[0].replace('_', '-')} applies to USD and glTF scenes; a TOML scene "
+                "says it in the file"
+            )
     if args.out is not None:
         check_output_path(args.out, force=args.force, folder=True)
+    if mesh and args.write_back is not None:
+        check_output_path(args.write_back, force=args.force)
     import jax
 
     jax.config.update("jax_enable_x64", True)  # truth and fits in float64 (float32: a constraint)
     enable_persistent_cache()
+    if mesh:
+        return _run_file(args)
+    scene = Scene.load(args.file)
+    if args.engine is not None:
+        from .._scenes._engine import get_engine
+
+        scene = engine_scene(scene, get_engine(args.engine))
     rec = recommend(scene, measure=args.measure)
     if args.json:
         print(json.dumps(rec.to_dict(), indent=2))
@@ -58,4 +113,35 @@ def _run_scene(args: argparse.Namespace) -> int:
         rec.save(args.out, force=args.force)
     wrote = f"; wrote {args.out}" if args.out is not None else ""
     _progress.done(f"{rec.summary()}{wrote}")
+    return EXIT_OK
+
+
+def _run_file(args: argparse.Namespace) -> int:
+    from .._scenes._answer import answer_file
+
+    ans = answer_file(
+        args.file,
+        measure=args.measure,
+        side=args.side,
+        tolerance=args.tolerance,
+        precision=args.precision,
+        threshold=args.threshold,
+        samples=args.samples,
+        radius=args.radius,
+        engine=args.engine,
+        strict=True if args.strict else None,
+    )
+    if args.json:
+        print(json.dumps(ans.to_dict(), indent=2))
+    else:
+        print(ans.to_markdown(), end="")
+    wrote = []
+    if args.out is not None:
+        _progress.stage(f"writing {args.out}")
+        ans.save(args.out, force=args.force)
+        wrote.append(args.out)
+    if args.write_back is not None:
+        ans.write_back(args.write_back, force=args.force)
+        wrote.append(args.write_back)
+    _progress.done(ans.summary() + (f"; wrote {', '.join(wrote)}" if wrote else ""))
     return EXIT_OK

@@ -81,8 +81,11 @@ class Family(eqx.Module):
 
     def __check_init__(self):
         """Refuse concrete parameter values that break their constraint (tracers pass)."""
+        defaults = self.defaults()
         for name in self.param_names():
-            _check_param(type(self).name, name, getattr(self, name), self.constraint(name))
+            value = getattr(self, name)
+            _check_param(type(self).name, name, value, self.constraint(name))
+            _check_shape(type(self).name, name, value, defaults[name])
 
     @abc.abstractmethod
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
@@ -176,6 +179,13 @@ def _check_param(family: str, name: str, value: Any, kind: str) -> None:
     arr = arr.astype(np.float64)
     if np.any(np.isnan(arr)):
         raise BadValueError(f"family {family!r}: parameter {name!r} must be a number, got NaN")
+    if np.any(np.isinf(arr)):
+        # engines read "no range" as the curve without its window (three.js distance = 0,
+        # Filament falloff(0)); the windowed forms give NaN or 0 at inf, so say it instead
+        raise BadValueError(
+            f"family {family!r}: parameter {name!r} must be finite, got {arr.max():g}; for a "
+            "light without a range, use a family without a window (e.g. inverse_square)"
+        )
     bad = None
     if kind == "positive" and np.any(arr <= 0):
         bad = "> 0"
@@ -186,6 +196,20 @@ def _check_param(family: str, name: str, value: Any, kind: str) -> None:
     if bad is not None:
         shown = arr.item() if arr.ndim == 0 else arr.tolist()
         raise BadValueError(f"family {family!r}: parameter {name!r} must be {bad}, got {shown}")
+
+
+def _check_shape(family: str, name: str, value: Any, default: Any) -> None:
+    """A parameter with a vector default (a spline's knots) keeps that length (a batch may
+    add leading axes)."""
+    try:
+        want, got = np.shape(default), np.shape(value)
+    except Exception:
+        return  # an unusual leaf (an abstract placeholder): the maths will tell
+    if want and got[len(got) - len(want) :] != want:
+        raise BadValueError(
+            f"family {family!r}: parameter {name!r} must have shape {want} (or a batch of "
+            f"them), got shape {got}"
+        )
 
 
 def _param_fields(cls: type) -> list[dataclasses.Field]:

@@ -2,7 +2,7 @@
 
 `fit` fits a family instance (its field values are the start) or a user's `(fn, params)`
 pair to attenuation samples `target` at distances `d`; `fit_dataset` fits the point-light
-model `E = I g f(d) max(0, n.l)` to a dataset's irradiance; `fit_many` solves thousands of
+model `E = I g f(d) max(0, n.l)` (or an area model, `_area`) to a dataset's irradiance; `fit_many` solves thousands of
 independent problems in one jitted, vmapped solve.
 
 How (docs/fitting.md):
@@ -35,8 +35,9 @@ from typing import Any
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._curves import Family
+from .._curves import AreaModel, Family
 from .._errors import BadTypeError, BadValueError
+from ._area import dataset_problem
 from ._compile import compiled_solve
 from ._result import FitResult, FitResults, make_result
 from ._spec import SHAPED_SPECS, spec_of
@@ -54,8 +55,8 @@ __all__ = ["fit", "fit_dataset", "fit_many"]
 
 def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched):
     ndim = 2 if batched else 1
-    d, target, weights = validate_data(d, target, weights, loss, ndim)
     spec, values = spec_of(model, batched)
+    d, target, weights = validate_data(d, target, weights, loss, ndim, spec.inputs)
     batch = target.shape[0] if batched else None
     shapes = tuple(
         v.shape[1:] if batched and v.ndim >= 1 and v.shape[0] == batch else v.shape
@@ -71,11 +72,12 @@ def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, ato
             for nm, shape in zip(spec.names, spec.shapes, strict=True)
         }
     if free is None:
-        free = (
-            tuple(getattr(type(model), "default_free", ()))
-            if isinstance(model, Family)
-            else spec.names
-        )
+        if isinstance(model, AreaModel):
+            free = model.free_by_default()
+        elif isinstance(model, Family):
+            free = tuple(getattr(type(model), "default_free", ()))
+        else:
+            free = spec.names
     n = target.shape[-1]
     free = validate_options(spec, values, free, loss, solver, max_steps, n, batch)
     dtype = dtype_of(d, target, *(() if weights is None else (weights,)))
@@ -116,10 +118,12 @@ def fit(
     """Fit `model` to attenuation samples `target` (1/length^2) at distances `d` (length).
 
     Args:
-        model: a family instance (its field values are the start), or a pair `(fn, params)`
-            with `fn(d, params) -> f` any JAX function of a dict of parameters and `params`
-            a dict of start values (unconstrained unless a third item, a dict of
-            constraints "positive" | "nonnegative" | "unit" | "real", says otherwise).
+        model: a family instance (its field values are the start), an area model (its `d`
+            is the receivers' `attenfit.area_inputs(...)`, its target `E / I`), or a pair
+            `(fn, params)` with `fn(d, params) -> f` any JAX function of a dict of
+            parameters and `params` a dict of start values (unconstrained unless a third
+            item, a dict of constraints "positive" | "nonnegative" | "unit" | "real", says
+            otherwise).
         d, target: samples, shape `(n,)`; `target > 0` (`>= 0` for the absolute loss).
         loss: "relative" (default; attenuation spans decades), "log" or "absolute".
         solver: "levenberg_marquardt" (default), "dogleg", "gauss_newton", "bfgs", or an
@@ -145,7 +149,7 @@ def fit(
     )
     # one numpy vector in (start values, d, target, weights), which the CPU backend reads
     # in place
-    parts = [*(np.ravel(values[k]) for k in spec.names), d, target, *w]
+    parts = [*(np.ravel(values[k]) for k in spec.names), np.ravel(d), target, *w]
     flat = _aligned_empty(sum(p.size for p in parts), dtype)
     np.concatenate(parts, out=flat, casting="unsafe")
     out = fn(flat)
@@ -180,7 +184,7 @@ def fit_many(
     )
     batch, n = target.shape
     bvalues = values
-    d = np.broadcast_to(d, (batch, n))
+    d = np.broadcast_to(d, (batch, *d.shape[-1 - (spec.inputs > 0) :]))
     w = () if weights is None else (np.broadcast_to(weights, (batch, n)),)
     fn = compiled_solve(
         spec, free, loss, solver, int(max_steps), rtol, atol, bool(guess), True, dtype, bool(w)
@@ -197,7 +201,9 @@ def fit_dataset(
     loss: str = "relative",
     **options: Any,
 ) -> FitResult:
-    """Fit the point-light model `E = weight * f(d)` to a dataset's irradiance.
+    """Fit the point-light model `E = weight * f(d)` to a dataset's irradiance (an area
+    model: `E = I * model(area_inputs)`, receivers with E = 0 left out unless the loss is
+    absolute, `attenfit._fit._area.dataset_problem`).
 
     `weight = I g max(0, n.l)` and `d` come from `dataset.weight()` and
     `dataset.distance()` (the emitter's `point_light`); receivers with weight 0 (facing
@@ -208,6 +214,12 @@ def fit_dataset(
     with stderr 0 in a partly noisy dataset get the smallest positive one). Other
     options as `fit`; a `weights` option multiplies these.
     """
+    if isinstance(model, AreaModel):
+        user_w = options.pop("weights", None)
+        if user_w is not None:
+            user_w = float_array("weights", user_w).reshape(-1)
+        x, target, w = dataset_problem(model, dataset, loss, user_w)
+        return fit(model, x, target, loss=loss, weights=w, **options)
     try:
         d = np.asarray(dataset.distance())
         wgt = np.asarray(dataset.weight())

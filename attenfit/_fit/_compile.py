@@ -238,9 +238,13 @@ def _unflatten_inputs(
         size = math.prod(shape)
         values[name] = flat[off : off + size].reshape(shape)
         off += size
-    n = (flat.shape[0] - off) // (3 if weighted else 2)
-    d, target = flat[off : off + n], flat[off + n : off + 2 * n]
-    return values, d, target, flat[off + 2 * n :] if weighted else None
+    rows = max(spec.inputs, 1)  # an area model's d is `inputs` rows of n
+    n = (flat.shape[0] - off) // (rows + (2 if weighted else 1))
+    d = flat[off : off + rows * n]
+    d = d.reshape(rows, n) if spec.inputs else d
+    off += rows * n
+    target = flat[off : off + n]
+    return values, d, target, flat[off + n :] if weighted else None
 
 
 def compiled_solve(

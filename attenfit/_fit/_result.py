@@ -13,11 +13,13 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from .._curves import Family
+from .._curves import AreaModel, Family
 from ._problem import packed_slices, unpack_columns
 from ._spec import free_size, free_slices, free_values, rebuild
 
 # ----------------------------------------------------------------------------- results
+#: What a fit's `model` may be besides a `(fn, params)` pair.
+_MODELS = (Family, AreaModel)
 _MESSAGES = tuple(optx.RESULTS._index_to_message)
 _RESULT_NAMES = {item._value.item(): name for name, item in optx.RESULTS._name_to_item.items()}
 
@@ -132,7 +134,7 @@ class FitResult:
         def plain_tree(v):  # strict JSON: NaN/inf parameters and errors become strings
             return [plain_tree(x) for x in v] if isinstance(v, list | tuple) else plain(v)
 
-        name = getattr(self.model, "name", None) if isinstance(self.model, Family) else None
+        name = getattr(self.model, "name", None) if isinstance(self.model, _MODELS) else None
         return {
             "family": name,
             "params": {k: plain_tree(v) for k, v in self.params.items()},
@@ -153,7 +155,7 @@ class FitResult:
     def __str__(self) -> str:
         name = (
             getattr(self.model, "name", "custom model")
-            if isinstance(self.model, Family)
+            if isinstance(self.model, _MODELS)
             else "custom model (fn, params)"
         )
         m = self.metrics
@@ -247,7 +249,7 @@ def make_result(
         "n": n,
         "k": k,
     }
-    if isinstance(template, Family):
+    if isinstance(template, _MODELS):
         model = rebuild(spec, template, [_field_value(fitted[nm], dtype) for nm in spec.names])
     else:
         model = (template[0], {nm: params[nm] for nm in spec.names})
@@ -303,7 +305,7 @@ class FitResults(Sequence):
             return [self[j] for j in range(*i.indices(len(self)))]
         i = range(len(self))[i]
         spec, template, values, free, flat, n, loss_kind, solver_name, dtype = self._args
-        if isinstance(template, Family):
+        if isinstance(template, _MODELS):
             one = rebuild(spec, template, [np.asarray(values[nm][i]) for nm in spec.names])
         else:
             one = (template[0], {nm: values[nm][i] for nm in spec.names})

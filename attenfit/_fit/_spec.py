@@ -15,7 +15,7 @@ import jax
 import numpy as np
 from jaxtyping import Array
 
-from .._curves import Family
+from .._curves import AREA_INPUTS, AreaModel, Family
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 
 CONSTRAINT_WORDS = {
@@ -43,6 +43,10 @@ class Spec:
     #: the model's pytree leaves are exactly its parameters, in `names` order, so a fitted
     #: model is `tree_unflatten(treedef, values)` (20x cheaper than `eqx.tree_at`)
     leaves_are_params: bool = False
+    #: rows of `d` (an area model's inputs, `_area`); 0: `d` is a vector of distances
+    inputs: int = 0
+    #: the parameter leaves of a model (`eqx.tree_at`'s `where`), where not its fields by name
+    where: Callable[[Any], list[Any]] | None = dataclasses.field(default=None, compare=False)
 
 
 def _family_spec(model: Family, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
@@ -109,8 +113,10 @@ def _leaves_are_params(model: Family, names: tuple[str, ...]) -> bool:
     return _LEAVES_ARE_PARAMS[key]
 
 
-def rebuild(spec: Spec, template: Family, fields: Sequence[Any]) -> Family:
+def rebuild(spec: Spec, template: Any, fields: Sequence[Any]) -> Any:
     """`template` with its parameters replaced by `fields` (in `spec.names` order)."""
+    if spec.where is not None:
+        return eqx.tree_at(spec.where, template, list(fields), is_leaf=lambda x: x is None)
     if spec.leaves_are_params:
         return jax.tree_util.tree_unflatten(spec.key[1], list(fields))
     return eqx.tree_at(
@@ -174,7 +180,50 @@ def _pair_spec(model: tuple, batched: bool) -> tuple[Spec, dict[str, np.ndarray]
     return spec, values
 
 
+_AREA_SPECS: dict[Any, Spec] = {}
+
+
+def area_spec(model: AreaModel, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
+    """The static structure of an area model and its parameter values."""
+    _, treedef = jax.tree_util.tree_flatten(model)
+    key = (type(model), treedef)
+    spec = _AREA_SPECS.get(key)
+    names = model.param_names()
+    if spec is None:
+        template = model
+
+        def where(m: AreaModel) -> list[Any]:
+            return m.param_leaves()
+
+        def evaluate(x, params):
+            m = eqx.tree_at(
+                where, template, [params[n] for n in names], is_leaf=lambda v: v is None
+            )
+            return m.evaluate(x)
+
+        spec = _AREA_SPECS[key] = Spec(
+            key=key,
+            evaluate=evaluate,
+            names=names,
+            kinds=tuple(model.constraint(n) for n in names),
+            shapes=(),
+            family=model.name,
+            length_params=model.length_params(),
+            inputs=len(AREA_INPUTS),
+            where=where,
+        )
+    values = {n: np.asarray(v) for n, v in zip(names, model.param_leaves(), strict=True)}
+    for n, v in values.items():
+        if v.dtype.kind not in "fiu":
+            raise BadTypeError(
+                f"parameter {n!r} of {model.name!r} must be a real number, got dtype {v.dtype}"
+            )
+    return spec, values
+
+
 def spec_of(model: Any, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
+    if isinstance(model, AreaModel):
+        return area_spec(model, batched)
     if isinstance(model, Family):
         return _family_spec(model, batched)
     if isinstance(model, type) and issubclass(model, Family):
@@ -184,7 +233,8 @@ def spec_of(model: Any, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
     if isinstance(model, tuple):
         return _pair_spec(model, batched)
     raise BadTypeError(
-        f"model must be a Family instance or a pair (fn, params), got {type(model).__name__}"
+        "model must be a Family or area model instance or a pair (fn, params), got "
+        f"{type(model).__name__}"
     )
 
 

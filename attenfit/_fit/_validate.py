@@ -36,8 +36,20 @@ def float_array(name: str, x: Any) -> np.ndarray:
 
 
 def validate_data(
-    d: Any, target: Any, weights: Any, loss: str, ndim: int
+    d: Any, target: Any, weights: Any, loss: str, ndim: int, rows: int = 0
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """`d`, `target` and `weights` checked; `rows`: an area model's inputs (`_area`) as `d`."""
+    if rows:
+        from ._area import stack_inputs
+
+        x = stack_inputs(d, ndim)
+        shape = np.shape(target)
+        if not shape or shape[-1] != x.shape[-1] or (x.ndim == 3 and shape[0] != x.shape[0]):
+            raise BadValueError(
+                f"the inputs hold {x.shape[-1]} receivers, target has shape {shape}"
+            )
+        _, target, weights = validate_data(x[..., 0, :], target, weights, loss, ndim)
+        return x, target, weights
     d = float_array("d", d)
     target = float_array("target", target)
     what = "(n,)" if ndim == 1 else "(batch, n)"
@@ -67,6 +79,24 @@ def validate_data(
             f"target must be > 0 for the {loss!r} loss, got {target[target <= 0].flat[0].item()!r} "
             "(use loss='absolute' for zero targets)"
         )
+    # values whose squares (absolute loss) or inverses (relative loss) leave the float range
+    # would judge any fit "exact" at 0 steps (residuals flushed to 0): refuse them
+    fi = np.finfo(target.dtype)
+    tiny, big = float(fi.tiny), float(fi.max)
+    lo, hi = tiny**0.5 * 1e4, big**0.5 / 1e4  # for squares: weights, absolute targets
+    if loss == "relative" and not (1e4 / big <= t_lo and t_hi <= 1 / (1e4 * tiny)):
+        bad = float(t_lo if t_lo < 1e4 / big else t_hi)
+        raise BadValueError(
+            f"target values must lie within [{1e4 / big:.0e}, {1 / (1e4 * tiny):.0e}] in "
+            f"{target.dtype} for a relative fit to be judged (1 / target must be a normal "
+            f"float), got {bad!r}; rescale the target (the fitted shape does not depend on it)"
+        )
+    if loss == "absolute" and t_hi > 0 and not (lo <= t_hi <= hi):
+        raise BadValueError(
+            f"target values must reach into [{lo:.0e}, {hi:.0e}] in {target.dtype} for an "
+            f"absolute fit to be judged (their squares must be normal floats), got a largest "
+            f"of {float(t_hi)!r}; rescale the target"
+        )
     if weights is not None:
         weights = float_array("weights", weights)
         if weights.shape != target.shape and not (ndim == 2 and weights.shape == target.shape[1:]):
@@ -78,6 +108,13 @@ def validate_data(
             raise BadValueError(f"weights must be finite and >= 0, got {bad!r}")
         if not np.all(np.any(weights > 0, axis=-1)):
             raise BadValueError("weights are all 0 (in at least one problem); nothing to fit")
+        w_pos = weights[weights > 0]
+        if not (lo <= w_pos.min() and w_pos.max() <= hi):
+            bad = w_pos[(w_pos < lo) | (w_pos > hi)].flat[0].item()
+            raise BadValueError(
+                f"weights must lie within [{lo:.0e}, {hi:.0e}] (or be 0) for a fit to be judged, "
+                f"got {bad!r}; rescale them (only their ratios matter)"
+            )
     return d, target, weights
 
 

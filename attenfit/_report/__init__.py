@@ -6,6 +6,7 @@ parameters (`_published`), the result rows (`_evaluate`), the combined fit
 Imports the curves, truth, fitting and shaders stages, and nothing above.
 """
 
+from . import _area_candidates  # noqa: F401 (area models join the decision table)
 from ._build import build_report as build_report
 from ._configs import DEFAULT_RADIUS as DEFAULT_RADIUS
 from ._configs import PLANE_PX as PLANE_PX

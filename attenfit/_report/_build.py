@@ -11,12 +11,14 @@ the figures (PNG, and SVG when asked) into a folder that appears only when compl
 from __future__ import annotations
 
 import datetime as _dt
+import re
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
+from .. import _budget
 from .._curves import Family, get_family, list_families
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._truth import emitter_from_dict
@@ -27,6 +29,7 @@ from ._configs import (
     PUBLISHED_CUTOFF,
     SWEEP_N,
     Config,
+    check_dataset,
     dataset_config,
     default_emitters,
     emitter_config,
@@ -35,7 +38,7 @@ from ._configs import (
 from ._evaluate import evaluate_row, failed_row, family_costs, truth_interpolator
 from ._findings import seed_findings
 from ._fit_all import fit_all
-from ._published import published_params, range_of
+from ._published import published_params, range_of, range_params, shape_free
 from ._report import Report
 
 
@@ -105,6 +108,7 @@ def build_report(
     plane_px: int = PLANE_PX,
     cost: bool | str = True,
     figures_early: bool = False,
+    ceiling: bool = False,
     progress: Callable[[str], None] | None = None,
 ) -> Report:
     """Compare `families` (default: every registered one) against `emitters` and `datasets`.
@@ -121,6 +125,8 @@ def build_report(
             "counts", the operation counts only (deterministic, faster); False, none.
         figures_early: draw the published figures in a second thread while the fits run, for
             a report that will be written (`Report.write` then uses them).
+        ceiling: also compute the section "what no distance curve can fix" (`_ceiling`:
+            the point-light model's ceiling against the area models; minutes).
         progress: called with one line per stage (the CLI prints it on stderr).
     """
     import jax
@@ -135,13 +141,25 @@ def build_report(
         for i, ds in enumerate(datasets or []):
             prov = dict(getattr(ds, "provenance", {}) or {})
             ds_items.append((f"{prov.get('generator', 'dataset')}-{i + 1}", ds))
+    for name, ds in ds_items:
+        _check_name(name)
+        check_dataset(name, ds)
     if int(sweep_n) < 8 or int(plane_px) < 8:
         raise BadValueError(f"sweep_n and plane_px must be >= 8, got {sweep_n} and {plane_px}")
+    n_configs = len(_resolve_emitters(emitters)) + len(ds_items)
+    _budget.check(
+        BYTES_BASE + n_configs * BYTES_PER_SAMPLE * (int(plane_px) ** 2 + int(sweep_n)),
+        f"a report of {n_configs} configurations with {plane_px} x {plane_px} planes and "
+        f"{sweep_n}-distance sweeps",
+        "a smaller plane_px (--plane-px) or sweep_n (--sweep-n)",
+    )
     timings: dict[str, float] = {}
     configs: list[Config] = []
     with jax.enable_x64(True):
         ems = _as_float64(_resolve_emitters(emitters))
         t = time.perf_counter()
+        for name in ems:
+            _check_name(name)
         for name, em in ems.items():
             say(f"truth: {name} ({sweep_n} distances, {plane_px} x {plane_px} plane)")
             configs.append(emitter_config(name, em, int(sweep_n), int(plane_px)))
@@ -233,6 +251,11 @@ def build_report(
         "jax": jax.__version__,
         "backend": jax.default_backend(),
     }
+    if ceiling:
+        from ._ceiling import ceiling_data
+
+        say("what no distance curve can fix: the ceiling and the area models")
+        meta["ceiling"] = ceiling_data()
     return Report(
         [c.name for c in classes],
         configs,
@@ -289,28 +312,46 @@ def _fit_range(cls: type, start: Mapping[str, Any]) -> float | None:
 def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
     """Fit every family on every sweep, in one solve per sample count (`_report_fit`).
 
-    Windowed families are fitted inside their published range (weights 0 beyond it). If the
-    combined solve fails as a whole, each family is fitted on its own with `fit_many`.
+    Only shape parameters are free (`shape_free`): a range is the user's budget and stays at
+    its published value. Windowed families are fitted where they are judged, d <= range/2
+    (weights 0 beyond). A family with nothing free keeps its published parameters. If the
+    combined solve fails as a whole, each row is marked failed with the error.
     """
 
     groups: dict[int, list[Config]] = {}
     for c in sweep_cfgs:
         groups.setdefault(int(c.sweep.d.size), []).append(c)
+    fixed = {cls: range_params(cls) for cls in classes}
     for cfgs in groups.values():
         problems, keys = [], []
         for cls in classes:
             for c in cfgs:
                 start = pub[(cls.name, c.name)][0]
                 rg = _fit_range(cls, start)
+                if not shape_free(cls):
+                    model = models[(cls.name, c.name, "published")]
+                    models[(cls.name, c.name, "fitted")] = model
+                    note = (
+                        f"nothing to fit ({', '.join(range_params(cls))} is the range, kept "
+                        "fixed): fitted = published"
+                        if range_params(cls)
+                        else "no parameter: fitted = published"
+                    )
+                    results.append(
+                        evaluate_row(cls.name, c, "fitted", model, note=note, store=values)
+                    )
+                    continue
                 w = (
-                    (c.sweep.d < rg).astype(np.float64)
+                    (c.sweep.d <= 0.5 * rg).astype(np.float64)
                     if rg is not None
                     else np.ones_like(c.sweep.d)
                 )
                 problems.append((cls, start, c.sweep.d, c.sweep.truth, w))
                 keys.append((cls, c, rg))
+        if not problems:
+            continue
         try:
-            outs = fit_all(problems)
+            outs = fit_all(problems, fixed=fixed)
         except Exception as exc:  # e.g. a user's family that cannot be traced under a switch
             outs = [None] * len(problems)
             error = f"{type(exc).__name__}: {exc}"
@@ -337,6 +378,8 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
                 continue
             models[(cls.name, c.name, "fitted")] = model
             note = f"free: {', '.join(info['free']) or 'none'}"
+            if range_params(cls):
+                note += f"; {', '.join(range_params(cls))} fixed (the range)"
             moved = _moved(info, start_of(cls, c))
             if moved:  # converged where the loss reached rounding level, the optimum at a limit
                 note += f"; {'; '.join(moved)}: no finite optimum"
@@ -370,3 +413,20 @@ def _why(info: Mapping[str, Any], start: Mapping[str, Any]) -> str:
             f"loss {float(info.get('loss', float('nan'))):.2g}"
         )
     return str(info.get("message", ""))
+
+
+#: Peak memory of a report: a baseline and so much per sample (pixel or distance) of each
+#: configuration, measured by `python -m benchmarks memory` (about 2 kB) and rounded up.
+BYTES_BASE = 1 << 30
+BYTES_PER_SAMPLE = 4096
+
+_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]{0,63}")
+
+
+def _check_name(name: object) -> None:
+    """A configuration's name heads tables and figures and names files: plain characters only."""
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise BadValueError(
+            f"configuration name {name!r} must be 1-64 letters, digits or '_.+-' "
+            "(it names the report's files), starting with a letter or digit"
+        )

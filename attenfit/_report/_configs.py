@@ -36,6 +36,12 @@ SWEEP_N = 160
 PLANE_PX = 96
 #: Samples along the ray used for plane energies.
 RADIAL_N = 1200
+#: Floors under the light (heights log-spaced from contact to 10 r) and receivers per floor.
+FLOOR_HEIGHTS = 7
+FLOOR_N = 48
+#: Receivers of random position and orientation around the light (fixed seed).
+RANDOM_N = 600
+RANDOM_SEED = 19
 #: Families whose range and near-field behaviour the report's findings are about.
 WINDOWED = ("smooth", "hard")
 MODES = ("published", "fitted")
@@ -75,6 +81,27 @@ class Plane:
 
 
 @dataclasses.dataclass
+class Receivers:
+    """One receiver set (docs/report.md, "The receivers that matter"): each receiver's centre
+    distance `d`, point-light weight `weight` (I g max(0, n.l)), exact irradiance `E`, the
+    irradiance its error is relative to (`ref`: E itself, or the irradiance a receiver facing
+    the light's centre there would get) and its distance from the light's surface `gap`
+    (d - r for a sphere or capsule, to the nearest point of a disk), which sets its decision
+    band."""
+
+    name: str  # "facing" | "floor" | "random"
+    d: np.ndarray
+    weight: np.ndarray
+    E: np.ndarray
+    ref: np.ndarray
+    gap: np.ndarray
+    description: str
+    #: The receivers themselves (N x 3), for models that read their geometry (area models).
+    points: np.ndarray | None = None
+    normals: np.ndarray | None = None
+
+
+@dataclasses.dataclass
 class Config:
     name: str
     kind: str  # "sphere" | "disk" | "capsule" | "dataset"
@@ -83,6 +110,10 @@ class Config:
     sweep: Sweep | None
     plane: Plane | None
     source: str  # "attenfit.irradiance" or the dataset's generator
+    #: The receiver sets every model is judged on (facing, floor, random), by name.
+    receivers: dict[str, Receivers] = dataclasses.field(default_factory=dict)
+    #: For a Monte Carlo dataset: (exact - sample) / stderr at each receiver (the witness).
+    witness_z: np.ndarray | None = None
 
 
 def default_emitters(radius: float = DEFAULT_RADIUS) -> dict[str, Any]:
@@ -195,9 +226,22 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
     rho_max = max(1e3 * h, 3.0 * rng)
     rho = np.concatenate([[0.0], np.geomspace(1e-3 * h, rho_max, RADIAL_N - 1)])
     radial_p = origin[None, :] + rho[:, None] * u[None, :]
-    (sE, sd, sw), (zE, _, zw), (pE, pd, pw), (rE, rd, rw) = exact_truth_parts(
-        emitter, [(sweep_p, -axis), (zero_p, -axis), (plane_p, -axis), (radial_p, -axis)]
+    floor_p, floor_n, floor_what = _floor_receivers(kind, c, axis, r)
+    rand_p, rand_n, facing_n, rand_what = _random_receivers(kind, emitter, c, axis, r)
+    parts = exact_truth_parts(
+        emitter,
+        [
+            (sweep_p, -axis),
+            (zero_p, -axis),
+            (plane_p, -axis),
+            (radial_p, -axis),
+            (floor_p, floor_n),
+            (rand_p, rand_n),
+            (rand_p, facing_n),
+        ],
     )
+    (sE, sd, sw), (zE, _, zw), (pE, pd, pw), (rE, rd, rw) = parts[:4]
+    (fE, fd, fw), (qE, qd, qw), (qF, _, _) = parts[4:]
     truth = sE / sw
     truth0 = float(zE[0] / zw[0]) if kind == "disk" else None
     what_sweep = {
@@ -230,7 +274,83 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
             f"radius {rho_max:.3g} m ({RADIAL_N} samples along a ray)"
         ),
     )
-    return Config(name, kind, emitter, r, sweep, plane, "attenfit.irradiance (exact)")
+
+    def gap(pts: np.ndarray, dd: np.ndarray) -> np.ndarray:
+        if kind != "disk":
+            return np.maximum(dd - r, 0.0)
+        rel = np.reshape(pts, (-1, 3)) - c
+        z = rel @ axis
+        q = np.linalg.norm(rel - z[:, None] * axis, axis=1)
+        return np.hypot(z, np.maximum(q - r, 0.0))
+
+    receivers = {
+        "facing": Receivers(
+            "facing", sd, sw, sE, sE, gap(sweep_p, sd), what_sweep, *_geometry(sweep_p, -axis)
+        ),
+        "floor": Receivers(
+            "floor", fd, fw, fE, fE, gap(floor_p, fd), floor_what, *_geometry(floor_p, floor_n)
+        ),
+        "random": Receivers(
+            "random", qd, qw, qE, qF, gap(rand_p, qd), rand_what, *_geometry(rand_p, rand_n)
+        ),
+    }
+    return Config(name, kind, emitter, r, sweep, plane, "attenfit.irradiance (exact)", receivers)
+
+
+def _geometry(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    p = np.reshape(points, (-1, 3))
+    return p, np.broadcast_to(normals, p.shape).reshape(-1, 3)
+
+
+def _floor_receivers(kind: str, c: np.ndarray, axis: np.ndarray, r: float):
+    """Floors under the light, facing up at it: FLOOR_HEIGHTS heights from contact to 10 r,
+    each with receivers from under the centre out to 100 r along two perpendicular rays."""
+    lo = 1e-2 * r if kind == "disk" else r * (1.0 + 1e-9)
+    hs = np.geomspace(lo, 10.0 * r, FLOOR_HEIGHTS)
+    rho = np.concatenate([[0.0], np.geomspace(1e-2 * r, 100.0 * r, FLOOR_N - 1)])
+    u, v = frame(axis)
+    pts = [
+        c + h * axis + x * e for h in hs for e in (u, v) for x in rho
+    ]  # small: 2 * FLOOR_HEIGHTS * FLOOR_N points
+    what = (
+        f"floors facing the light at {FLOOR_HEIGHTS} heights from "
+        f"{'0.01 r' if kind == 'disk' else 'contact'} to 10 r below its centre, receivers "
+        "from under the centre out to 100 r"
+    )
+    return np.asarray(pts), -axis, what
+
+
+def _random_receivers(kind: str, emitter: Any, c: np.ndarray, axis: np.ndarray, r: float):
+    """RANDOM_N receivers around the light: directions uniform on the sphere, gaps from the
+    light's surface log-uniform from 0.01 r to 1000 r, normals uniform on the sphere (fixed
+    seed); also the normals facing the light's centre (for the error's reference)."""
+    rng = np.random.default_rng(RANDOM_SEED)
+    n = RANDOM_N
+    dirs = rng.normal(size=(n, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    gap = r * 10.0 ** rng.uniform(-2.0, 3.0, n)
+    base = 0.0 if kind == "disk" else r
+    if kind == "capsule":
+        base += 0.5 * float(np.linalg.norm(np.asarray(emitter.b) - np.asarray(emitter.a)))
+    pts = c + (base + gap)[:, None] * dirs
+    nrm = rng.normal(size=(n, 3))
+    nrm /= np.linalg.norm(nrm, axis=1, keepdims=True)
+    what = (
+        f"{n} receivers around the light, {'0.01 r' if kind == 'disk' else 'contact'} to 1000 r, "
+        "random directions and orientations (error relative to a receiver facing the light there)"
+    )
+    return pts, nrm, -dirs, what
+
+
+def check_dataset(name: str, ds: Any) -> None:
+    """Refuse, before any work, a dataset the report cannot judge a curve on."""
+    E = np.asarray(ds.E, np.float64).ravel()
+    w = np.asarray(ds.weight(), np.float64).ravel() if len(E) else E
+    if not np.any((E > 0) & (w > 0)):
+        raise BadValueError(
+            f"dataset {name!r} has no receiver lit from the front with E > 0 "
+            f"({len(E)} receivers): there is nothing to judge a curve on"
+        )
 
 
 def dataset_config(name: str, ds: Any, sweep_n: int) -> Config:
@@ -245,6 +365,13 @@ def dataset_config(name: str, ds: Any, sweep_n: int) -> Config:
     E = np.asarray(ds.E, np.float64).ravel()
     se = getattr(ds, "stderr", None)
     se = None if se is None else np.broadcast_to(np.asarray(se, np.float64), E.shape).ravel()
+    pts = np.asarray(ds.points, np.float64).reshape(-1, 3)
+    nrm = np.asarray(np.broadcast_to(ds.normals, np.shape(ds.points)), np.float64).reshape(-1, 3)
+    E_exact, _, _ = exact_truth(emitter, pts, nrm)
+    z = None
+    if se is not None:
+        good = np.isfinite(se) & (se > 0) & np.isfinite(E)
+        z = (E_exact[good] - E[good]) / se[good]
     shape = prov.get("shape")
     label = f"{gen}" + (f" {prov['variant']}, {prov['spp']} spp" if "spp" in prov else "")
     if shape is not None and len(shape) == 2:
@@ -260,13 +387,10 @@ def dataset_config(name: str, ds: Any, sweep_n: int) -> Config:
             img[idx] = values
             return img.reshape(ny, nx)
 
-        pts = np.asarray(ds.points, np.float64).reshape(-1, 3)
-        nrm = np.asarray(ds.normals, np.float64).reshape(-1, 3)
         up = np.asarray(prov.get("up", nrm[0]), np.float64)
         ex = np.asarray(prov.get("x_axis", frame(-up)[0]), np.float64)
         ey = np.asarray(prov.get("y_axis", np.cross(up, ex)), np.float64)
         c, _, _ = geometry(emitter)
-        E_exact, _, _ = exact_truth(emitter, pts, nrm)
         X, Y = grid((pts - c) @ ex), grid((pts - c) @ ey)
         half = prov.get("extent")
         extent = (
@@ -293,7 +417,7 @@ def dataset_config(name: str, ds: Any, sweep_n: int) -> Config:
             truth_label=f"truth ({gen})",
             E_exact=grid(E_exact),
         )
-        return Config(name, kind, emitter, r, None, plane, gen)
+        return Config(name, kind, emitter, r, None, plane, gen, witness_z=z)
     ok = w > 0
     order = np.argsort(d[ok])
     dd, tt = d[ok][order], (E[ok] / w[ok])[order]
@@ -307,7 +431,7 @@ def dataset_config(name: str, ds: Any, sweep_n: int) -> Config:
         description=f"{dd.size} dataset samples ({label})",
         dense_d=np.geomspace(dd.min(), dd.max(), 240) if dd.size >= 2 and dd.min() > 0 else None,
     )
-    return Config(name, kind, emitter, r, sweep, None, gen)
+    return Config(name, kind, emitter, r, sweep, None, gen, witness_z=z)
 
 
 # ============================================================================ parameters

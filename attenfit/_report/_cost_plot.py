@@ -20,19 +20,21 @@ def plot_cost_vs_error(
     ax: Any = None,
     title: str | None = None,
     xlabel: str | None = None,
+    ylim: tuple[float, float] = (1e-4, 1e2),
+    ylabel: str = "max relative error",
 ) -> tuple[Any, Any]:
     """Error against cost, log-log, one labelled point per family, the Pareto front drawn.
 
-    Returns `(fig, ax)`; draws into `ax` when given. Errors of 0 are drawn at the bottom
-    of the axis (at a tenth of the smallest positive error), infinite ones are left out
-    and named in the legend. `xlabel` names the cost (default: after `by`).
+    Returns `(fig, ax)`; draws into `ax` when given. The error axis spans `ylim` (default
+    0.01% to 10000%, the band that matters wide): smaller errors are drawn on its bottom edge
+    as ▼, larger ones on its top edge as ▲; infinite ones are left out and named in the
+    legend. `xlabel` names the cost (default: after `by`).
     """
     import matplotlib.pyplot as plt
 
     pf = pareto_front(errors, costs, by=by)
     finite = {k: v for k, v in pf.error.items() if np.isfinite(v)}
-    positive = [v for v in finite.values() if v > 0]
-    floor = min(positive) / 10 if positive else 1e-8
+    floor, top = ylim
     xlabel = (
         {
             "shader_cost": "shader cost (full-rate ALU instructions per evaluation)",
@@ -49,27 +51,53 @@ def plot_cost_vs_error(
         else:
             fig = ax.figure
         xs = {k: max(pf.cost[k], 0.5) for k in finite}
-        ys = {k: max(v, floor) for k, v in finite.items()}
+        ys = {k: min(max(v, floor), top) for k, v in finite.items()}
         off = [k for k in finite if k not in pf.front]
         on = [k for k in pf.front if k in finite]
-        ax.scatter([xs[k] for k in off], [ys[k] for k in off], c="0.55", s=22, label="dominated")
-        ax.scatter([xs[k] for k in on], [ys[k] for k in on], c="C3", s=30, zorder=3,
-                   label="Pareto front")  # fmt: skip
+
+        def marker(k: str) -> str:
+            return "v" if finite[k] < floor else "^" if finite[k] > top else "o"
+
+        for group, colour, size, label in ((off, "0.45", 24, "dominated"),
+                                           (on, "C3", 32, "Pareto front")):  # fmt: skip
+            named = False
+            for m in ("o", "v", "^"):
+                ks = [k for k in group if marker(k) == m]
+                if ks:
+                    ax.scatter([xs[k] for k in ks], [ys[k] for k in ks], c=colour, s=size,
+                               marker=m, zorder=3, clip_on=False,
+                               label=None if named else label)  # fmt: skip
+                    named = True
+        if any(marker(k) != "o" for k in finite):
+            ax.plot([], [], " ", label=f"▼ below {100 * floor:g}%, ▲ above {100 * top:g}%: "
+                    "drawn on the edge")  # fmt: skip
         if on:
             fx, fy = [xs[k] for k in on], [ys[k] for k in on]
             ax.step(fx, fy, where="post", color="C3", lw=1.2, zorder=2)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_ylim(floor, top)
+        from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
+
+        lo_x, hi_x = min(xs.values(), default=1), max(xs.values(), default=10)
+        ax.set_xlim(lo_x / 1.4, hi_x * 1.6)
+        ticks = [t for t in (1, 2, 5, 10, 20, 50, 100, 200, 500) if lo_x / 1.4 <= t <= hi_x * 1.6]
+        ax.xaxis.set_major_locator(FixedLocator(ticks))
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _p: f"{v:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _p: f"{100 * v:g}%"))
+        ax.yaxis.set_minor_formatter(NullFormatter())
         groups: dict[tuple[float, float], list[str]] = {}
         for k in finite:  # families at the same point share one label
             groups.setdefault((xs[k], ys[k]), []).append(k)
         _place_labels(ax, groups, pf.front)
         ax.set_xlabel(xlabel)
-        ax.set_ylabel("max relative error")
+        ax.set_ylabel(ylabel)
         bad = sorted(k for k, v in pf.error.items() if not np.isfinite(v))
         if bad:
             ax.plot([], [], " ", label=f"infinite error: {', '.join(bad)}")
-        ax.legend(loc="best", fontsize=7)
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3, fontsize=7,
+                  frameon=False)  # fmt: skip
         if title:
             ax.set_title(title)
     return fig, ax

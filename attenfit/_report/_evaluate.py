@@ -33,6 +33,8 @@ def model_values(model: Any, cfg: Config) -> dict[str, np.ndarray]:
         parts["zero"] = np.zeros(1)
         if cfg.sweep.dense_d is not None:
             parts["dense"] = cfg.sweep.dense_d
+    for name, rs in cfg.receivers.items():
+        parts[f"rx_{name}"] = rs.d
     if cfg.plane is not None:
         parts["plane"] = cfg.plane.dist.ravel()
         if cfg.plane.rho is not None:
@@ -60,6 +62,17 @@ def sweep_metrics(
             z = (f - sw.truth) / sw.stderr
         z = z[np.isfinite(z)]
         out["max_abs_z"] = float(np.max(np.abs(z))) if z.size else None
+    return out
+
+
+def receiver_metrics(
+    cfg: Config, vals: Mapping[str, np.ndarray], rng: float | None
+) -> dict[str, Any]:
+    """`_metrics.receiver_errors` on each receiver set of the configuration."""
+    out = {}
+    for name, rs in cfg.receivers.items():
+        E_model = rs.weight * vals[f"rx_{name}"]
+        out[name] = M.receiver_errors(E_model, rs.E, rs.ref, rs.d, rs.gap, cfg.radius, range_=rng)
     return out
 
 
@@ -212,12 +225,15 @@ def evaluate_row(
         rng = range_of(model) if range_ is None else range_
         if c.sweep is not None:
             row["sweep"] = sweep_metrics(model, c, vals, rng)
+        if c.receivers:
+            row["receivers"] = receiver_metrics(c, vals, rng)
         if c.plane is not None:
             row["plane"] = plane_metrics(model, c, vals)
         row["window"] = window_metrics(model)
     except Exception as exc:  # a family that fails to evaluate is marked, not dropped
         row["status"] = f"error: {type(exc).__name__}: {exc}"
         row["sweep"] = row["plane"] = row["window"] = None
+        row.pop("receivers", None)
     return row
 
 

@@ -1,8 +1,9 @@
 """The figures of the comparison report (`attenfit.report.Report.write_figures`).
 
 Built from `attenfit.plots`; one function per figure kind, each saving PNG (and SVG) and
-closing its figure. Families are split into two panels, those without a range and the
-windowed ones, so that no panel carries more than ten curves.
+closing its figure. Curves come as small multiples: families without a range, then the
+windowed ones, in panels of at most six curves (each with its own colour and line style),
+the truth in black; distances are in light radii (d / r) throughout, with r given.
 """
 
 from __future__ import annotations
@@ -59,22 +60,43 @@ def _curves(report, cfg, fams, mode, part="sweep") -> dict[str, np.ndarray]:
     return out
 
 
+def _groups(report) -> list[tuple[list[str], str]]:
+    """Panels of at most `plots.GROUP` families: those without a range, then windowed ones."""
+    plain, windowed = _split(report)
+    out = []
+    for fams, what in ((plain, "without a range"), (windowed, "windowed")):
+        k = -(-len(fams) // plots.GROUP) if fams else 0
+        for i in range(k):  # even splits: 9 -> 5 + 4, 11 -> 6 + 5
+            part = fams[i * len(fams) // k : (i + 1) * len(fams) // k]
+            out.append((part, what if k == 1 else f"{what} ({i + 1}/{k})"))
+    return out
+
+
 def _two_panel(report, cfg, mode: str, kind: str):
+    """Small multiples of the curves (or their errors) of `cfg` in `mode`."""
     import matplotlib as mpl
 
-    plain, windowed = _split(report)
-    groups = [(g, t) for g, t in ((plain, "without a range"), (windowed, "windowed")) if g]
-    styles = plots.curve_styles(plain)
-    styles.update(plots.curve_styles(windowed))
+    groups = _groups(report)
     sw = cfg.sweep
+    ncols = 1 if len(groups) == 1 else 2
+    nrows = -(-len(groups) // ncols)
     with mpl.rc_context(plots.STYLE):
-        fig = plots.new_figure((5.2 * len(groups), 5.0))
-        axes = fig.subplots(1, len(groups), squeeze=False)
+        fig = plots.new_figure((5.6 * ncols, 4.6 * nrows))
+        axes = fig.subplots(nrows, ncols, squeeze=False, sharex=True, sharey=True)
         mode_text = "as published" if mode == "published" else "fitted"
-        for ax, (fams, what) in zip(axes[0], groups, strict=True):
+        fig.suptitle(
+            f"{cfg.name} (r = {cfg.radius:g} m), {mode_text}: "
+            + ("attenuation against the truth (black)" if kind == "attenuation"
+               else "|relative error| on the facing sweep"),
+            fontsize=11,
+        )  # fmt: skip
+        for ax in axes.ravel()[len(groups) :]:
+            ax.set_visible(False)
+        for ax, (fams, what) in zip(axes.ravel(), groups, strict=False):
+            styles = plots.curve_styles(fams)
             dense = kind == "attenuation" and sw.dense_d is not None
             curves = _curves(report, cfg, fams, mode, "dense" if dense else "sweep")
-            title = f"{cfg.name}, {mode_text}: families {what}"
+            title = f"families {what}"
             if kind == "attenuation":
                 pts = None
                 if sw.stderr is not None or dense:
@@ -106,7 +128,15 @@ def _two_panel(report, cfg, mode: str, kind: str):
                     legend="below",
                     ax=ax,
                 )
+                rg = [report._get(f, cfg.name, mode) for f in fams]
+                if any(((x or {}).get("window") or {}).get("range") for x in rg):
+                    ax.text(0.01, 0.99, "windows are judged for d ≤ range/2", va="top",
+                            transform=ax.transAxes, fontsize=7, color="0.3")  # fmt: skip
     return fig
+
+
+def _in_r(extent, r: float):
+    return tuple(float(e) / r for e in extent)
 
 
 def _plane_errors(report, cfg):
@@ -117,34 +147,35 @@ def _plane_errors(report, cfg):
         if v is not None:
             models[fam] = pl.weight * v
     fig, _ = plots.plot_plane_comparison(
-        pl.E, models, pl.extent, truth_label=pl.truth_label, ncols=5
+        pl.E, models, _in_r(pl.extent, cfg.radius), truth_label=pl.truth_label, ncols=5,
+        unit="r",
+    )  # fmt: skip
+    fig.suptitle(
+        f"{cfg.name} (r = {cfg.radius:g} m): error of each family as published on the plane",
+        fontsize=10,
     )
-    fig.suptitle(f"{cfg.name}: error of each family as published on the plane", fontsize=10)
     return fig
 
 
 def _side_by_side(report, cfg):
-    import matplotlib as mpl
-
+    """The truth once, three published models on its colour scale, and their error maps."""
     pl = cfg.plane
-    rows: list[tuple[str, np.ndarray, str]] = []
-    if pl.E_exact is not None:
-        rows.append(("exact (attenfit.irradiance)", pl.E_exact, ""))
-    for fam in ("inverse_square", "yuksel", "unreal_window", "madams_cutoff"):
-        if len(rows) >= 3:
+    models: dict[str, np.ndarray] = {}
+    truth, label = pl.E, pl.truth_label
+    if pl.E_exact is not None:  # a Monte Carlo image: the exact one is a model beside it
+        models["exact (attenfit.irradiance)"] = pl.E_exact
+    for fam in ("inverse_square", "yuksel_adhoc", "yuksel", "unreal_window", "madams_cutoff"):
+        if len(models) >= 3:
             break
         v = _vals(report, fam, cfg, "published", "plane")
         if v is not None:
-            rows.append((f"{fam} (published)", pl.weight * v, fam))
-    if not rows:
+            models[f"{fam} (published)"] = pl.weight * v
+    if not models:
         return None
-    with mpl.rc_context(plots.STYLE):
-        fig = plots.new_figure((11.5, 3.1 * len(rows)))
-        subs = np.atleast_1d(fig.subfigures(len(rows), 1))
-        for sub, (label, img, _) in zip(subs, rows, strict=True):
-            plots.plot_side_by_side(
-                pl.E, img, pl.extent, label=label, truth_label=pl.truth_label, fig=sub
-            )
+    fig, _ = plots.plot_plane_models(
+        truth, models, _in_r(pl.extent, cfg.radius), truth_label=label, unit="r"
+    )
+    fig.suptitle(f"{cfg.name} (r = {cfg.radius:g} m): {pl.description.split(';')[0]}", fontsize=10)
     return fig
 
 
@@ -169,7 +200,7 @@ def _cost_vs_error(report):
                 if fam not in costs or row is None or row["status"] != "ok":
                     continue
                 sw = row["sweep"] or {}
-                st = sw.get("in_range") or sw.get("overall") or {}
+                st = sw.get("inner_half") or sw.get("overall") or {}
                 if st.get("max_abs") is not None:
                     errors[fam] = float(st["max_abs"])
             if errors:
@@ -177,7 +208,7 @@ def _cost_vs_error(report):
     if not panels:
         return None
     with mpl.rc_context(plots.STYLE):
-        fig = plots.new_figure((6.2 * len(sweeps), 4.3 * len(modes)))
+        fig = plots.new_figure((7.0 * len(sweeps), 5.2 * len(modes)))
         axes = fig.subplots(len(modes), len(sweeps), squeeze=False)
         used = set()
         for i, j, cfg, mode, errors in panels:
@@ -188,13 +219,43 @@ def _cost_vs_error(report):
                 by="shader_cost",
                 ax=axes[i, j],
                 xlabel=next(iter(report.costs.values())).get("cost_label", "shader cost"),
-                title=f"{cfg.name}, {mode_text}: max |relative error| (in range) against cost",
+                title=f"{cfg.name} (r = {cfg.radius:g} m), {mode_text}",
+                ylabel="largest |relative error|, facing sweep (ᵂ: d ≤ range/2)",
             )
             used.add((i, j))
         for i in range(len(modes)):
             for j in range(len(sweeps)):
                 if (i, j) not in used:
                     axes[i, j].set_visible(False)
+    return fig
+
+
+def _witness_z(report, cfg):
+    """The z-scores of the exact values against a Monte Carlo dataset: their histogram over
+    the standard normal's density, with the median |z| (0.674 for an unbiased renderer)."""
+    import matplotlib as mpl
+
+    z = np.asarray(cfg.witness_z, np.float64)
+    z = z[np.isfinite(z)]
+    if not z.size:
+        return None
+    with mpl.rc_context(plots.STYLE):
+        fig = plots.new_figure((5.6, 3.6))
+        ax = fig.subplots()
+        lim = max(4.0, float(np.ceil(min(np.max(np.abs(z)), 8.0))))
+        clipped = np.clip(z, -lim, lim)
+        ax.hist(clipped, bins=min(60, max(10, z.size // 20)), range=(-lim, lim), density=True,
+                color="#0072B2", alpha=0.7, label=f"{z.size} receivers")  # fmt: skip
+        x = np.linspace(-lim, lim, 200)
+        ax.plot(
+            x, np.exp(-0.5 * x * x) / np.sqrt(2 * np.pi), color="black", label="standard normal"
+        )
+        ax.set_xlabel("z = (exact − Monte Carlo) / standard error (|z| > edge drawn at it)")
+        ax.set_ylabel("density")
+        ax.set_title(
+            f"{cfg.name} ({cfg.source}): median |z| = {np.median(np.abs(z)):.3g} (unbiased: 0.674)"
+        )
+        ax.legend(loc="upper right", frameon=False)
     return fig
 
 
@@ -218,6 +279,8 @@ def figure_jobs(report, *, published_only: bool = False):
                             ),
                         )
                     )
+        if getattr(cfg, "witness_z", None) is not None:
+            jobs.append((cfg, f"{cfg.name}_witness_z", lambda cfg=cfg: _witness_z(report, cfg)))
         if cfg.plane is not None:
             jobs.append(
                 (cfg, f"{cfg.name}_plane_errors", lambda cfg=cfg: _plane_errors(report, cfg))

@@ -19,7 +19,7 @@ family (relative loss, its `default_free`, started at the published values), sol
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 from typing import Any
 
 import equinox as eqx
@@ -39,9 +39,9 @@ class _Layout:
     offsets: tuple[int, ...]  # into u (free) or c (fixed)
 
 
-def _layout(cls: type, template: Any) -> _Layout:
+def _layout(cls: type, template: Any, fixed: Collection[str] = ()) -> _Layout:
     names = cls.param_names()
-    free = set(cls.default_free)
+    free = set(cls.default_free) - set(fixed)
     shapes, kinds, isfree, offs = [], [], [], []
     nu = nc = 0
     for n in names:
@@ -135,8 +135,12 @@ def fit_all(
     problems: Sequence[tuple[type, dict[str, Any], np.ndarray, np.ndarray, np.ndarray]],
     *,
     max_steps: int = 256,
+    fixed: Mapping[type, Collection[str]] | None = None,
 ) -> list[tuple[dict[str, Any] | None, dict[str, Any]]]:
     """Fit each problem `(cls, start_params, d, target, weights)` (all `d` of one length).
+
+    Each family's `default_free` parameters are free except those in `fixed[cls]` (the
+    report keeps ranges fixed), which keep their start values.
 
     Returns, per problem, `(params or None, info)`: the fitted parameters (family values,
     None when the fit did not converge) and `info` (converged, message, steps, loss, free).
@@ -147,7 +151,8 @@ def fit_all(
         if cls not in classes:
             classes.append(cls)
     templates = {cls: cls(**problems[[p[0] for p in problems].index(cls)][1]) for cls in classes}
-    layouts = {cls: _layout(cls, templates[cls]) for cls in classes}
+    fixed = fixed or {}
+    layouts = {cls: _layout(cls, templates[cls], fixed.get(cls, ())) for cls in classes}
     K = max(
         [1]
         + [

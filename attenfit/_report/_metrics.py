@@ -34,6 +34,57 @@ BANDS: Mapping[str, tuple[float, float]] = {
 }
 
 
+#: The bands of the decision table, on the distance from the light's surface (`gap`, d - r
+#: for a sphere, d for a disk) in units of r: contact to r, r to 10 r, beyond 10 r.
+GAP_BANDS: Mapping[str, tuple[float, float]] = {
+    "contact": (0.0, 1.0),
+    "near": (1.0, 10.0),
+    "far": (10.0, math.inf),
+}
+#: How the decision table names each of `GAP_BANDS`.
+GAP_BAND_LABELS: Mapping[str, str] = {
+    "contact": "contact to r",
+    "near": "r to 10 r",
+    "far": "beyond 10 r",
+}
+
+
+def receiver_errors(
+    E_model: ArrayLike,
+    E_true: ArrayLike,
+    ref: ArrayLike,
+    d: ArrayLike,
+    gap: ArrayLike,
+    r: float,
+    *,
+    range_: float | None = None,
+) -> dict[str, Any]:
+    """Errors of a model's irradiance at a receiver set, relative to `ref` (the truth itself,
+    or the facing irradiance there): `overall` and per `GAP_BANDS` band (`error_stats`, with
+    `worst_at` the worst receiver's d / r). Receivers with `ref` not finite and positive carry
+    no error; for a windowed curve (`range_`) only those with d <= range_/2 are judged, and
+    `covers` says which bands lie wholly inside range_/2."""
+    Em, Et, R = _f64("E_model", E_model), _f64("E_true", E_true), _f64("ref", ref)
+    dd, g = _f64("d", d), _f64("gap", gap)
+    ok = np.isfinite(R) & (R > 0)
+    if range_ is not None:
+        ok &= dd <= 0.5 * range_
+    with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
+        e = np.where(ok, (Em - Et) / np.where(ok, R, 1.0), np.nan)
+    x = dd / float(r)
+    out: dict[str, Any] = {"overall": error_stats(e, x), "bands": {}}
+    for band, (lo, hi) in GAP_BANDS.items():
+        sel = (g >= lo * r) & (g < hi * r)
+        out["bands"][band] = error_stats(np.where(sel, e, np.nan), x)
+    if range_ is not None:
+        out["covers"] = [
+            b
+            for b, (lo, hi) in GAP_BANDS.items()
+            if math.isfinite(hi) and np.all(dd[(g >= lo * r) & (g < hi * r)] <= 0.5 * range_)
+        ]
+    return out
+
+
 def _f64(name: str, x: ArrayLike) -> np.ndarray:
     try:
         arr = np.asarray(x, dtype=np.float64)

@@ -36,8 +36,12 @@ STYLE: Mapping[str, Any] = {
     "image.interpolation": "nearest",
 }
 
-_LINESTYLES = ("-", "--", "-.", ":")
-_TRUTH_STYLE = {"color": "black", "linewidth": 3.2, "alpha": 0.35, "zorder": 1}
+#: At most six curves a panel, each with its own colour (Okabe-Ito, told apart by colour-blind
+#: readers too) and its own line style.
+GROUP = 6
+_COLOURS = ("#0072B2", "#E69F00", "#009E73", "#D55E00", "#CC79A7", "#56B4E9")
+_LINESTYLES = ("-", "--", "-.", ":", (0, (6, 1.5, 1, 1.5, 1, 1.5)), (0, (1, 1)))
+_TRUTH_STYLE = {"color": "black", "linewidth": 2.6, "zorder": 1}
 _ERR_LABEL = "relative error (model − truth) / truth"
 
 
@@ -63,12 +67,10 @@ def plain_log_ticks(axis: Any) -> None:
 
 
 def curve_styles(labels: Sequence[str]) -> dict[str, dict[str, Any]]:
-    """A distinct colour and line style per label, stable for a given list of labels."""
-    import matplotlib as mpl
-
-    cmap = mpl.colormaps["tab10"]
+    """A colour and a line style per label, both distinct within every run of `GROUP` (6)
+    labels (draw at most six curves a panel), stable for a given list of labels."""
     return {
-        lab: {"color": cmap(i % 10), "linestyle": _LINESTYLES[(i // 10) % len(_LINESTYLES)]}
+        lab: {"color": _COLOURS[i % GROUP], "linestyle": _LINESTYLES[i % GROUP]}
         for i, lab in enumerate(labels)
     }
 
@@ -136,15 +138,17 @@ def plot_attenuation(
     """Attenuation `f(d)` against distance, log-log, each curve against the truth.
 
     `curves` maps a label to f at the distances `d` (m); `truth` is the true attenuation there
-    (drawn as a wide grey band). `truth_points` = (d, f, stderr or None) adds sampled truth
-    (e.g. Mitsuba) as points with error bars. `r` marks the light's radius. Zeros (a window
-    beyond its range) are not drawn on the log axis. Returns `(fig, ax)`.
+    (black). `truth_points` = (d, f, stderr or None) adds sampled truth (e.g. Mitsuba) as
+    points with error bars. With the light's radius `r` the x axis is d / r (the report's one
+    convention) and says r; without it, d in m. Zeros (a window beyond its range) are not
+    drawn on the log axis. Returns `(fig, ax)`.
     """
     import matplotlib as mpl
 
     with mpl.rc_context(STYLE):
         fig, ax = _new_ax(ax, (7.5, 4.2))
-        d = np.asarray(d, dtype=np.float64)
+        scale = 1.0 if r is None else float(r)
+        d = np.asarray(d, dtype=np.float64) / scale
         if truth is not None:
             ax.plot(d, _finite_positive(truth), label=truth_label, **_TRUTH_STYLE)
         sty = dict(styles or curve_styles(list(curves)))
@@ -153,7 +157,7 @@ def plot_attenuation(
         if truth_points is not None:
             pd, pf, ps = truth_points
             ax.errorbar(
-                np.asarray(pd),
+                np.asarray(pd) / scale,
                 np.asarray(pf),
                 yerr=None if ps is None else 2 * np.asarray(ps),
                 fmt="o",
@@ -163,10 +167,10 @@ def plot_attenuation(
                 zorder=5,
             )
         if r is not None:
-            ax.axvline(r, color="0.3", linewidth=0.8, linestyle=":")
+            ax.axvline(1.0, color="0.3", linewidth=0.8, linestyle=":")
             ax.annotate(
                 "d = r",
-                (r, 0.02),
+                (1.0, 0.02),
                 xycoords=("data", "axes fraction"),
                 rotation=90,
                 va="bottom",
@@ -176,9 +180,12 @@ def plot_attenuation(
             )
         ax.set_xscale("log")
         ax.set_yscale("log")
-        _finish_log_axes(
-            ax, "distance from the light's centre d (m)", "attenuation f(d) (1/m²)", title, legend
+        xlabel = (
+            "distance from the light's centre d (m)"
+            if r is None
+            else f"distance from the light's centre in radii, d / r (r = {r:g} m)"
         )
+        _finish_log_axes(ax, xlabel, "attenuation f(d) (1/m²)", title, legend)
     return fig, ax
 
 
@@ -190,32 +197,48 @@ def plot_relative_error(
     r: float,
     styles: Mapping[str, Mapping[str, Any]] | None = None,
     title: str | None = None,
-    linthresh: float = 1e-3,
-    ylim: tuple[float, float] = (-1.05, 10.0),
+    ylim: tuple[float, float] = (1e-3, 10.0),
     legend: str = "right",
     ax=None,
 ):
-    """Relative error `(f - truth) / truth` of each curve against `d / r`.
+    """|Relative error| `|f - truth| / truth` of each curve against `d / r`, log-log.
 
-    The y axis is symmetric-log: linear within +-`linthresh` (so an exact curve sits on 0)
-    and logarithmic beyond, from -1 (black) up; errors above `ylim[1]` are clipped at the
-    top. Returns `(fig, ax)`.
+    The y axis spans `ylim` (default 0.1% to 1000%): smaller errors (exact to rounding) are
+    drawn on its bottom edge, larger ones (and infinite ones) on its top edge, each marked
+    there with a triangle in the curve's colour (▲ too large, ▼ too small). Returns
+    `(fig, ax)`.
     """
     import matplotlib as mpl
 
     with mpl.rc_context(STYLE):
         fig, ax = _new_ax(ax, (7.5, 4.2))
         x = np.asarray(d, dtype=np.float64) / float(r)
+        lo, hi = ylim
         sty = dict(styles or curve_styles(list(curves)))
         for lab, y in curves.items():
-            rel = relative_error(y, truth)
-            rel = np.where(np.isinf(rel), np.sign(rel) * 1e300, rel)
-            ax.plot(x, np.clip(rel, ylim[0], ylim[1]), label=lab, **sty.get(lab, {}))
-        ax.axhline(0.0, color="black", linewidth=0.8)
+            rel = np.abs(relative_error(y, truth))
+            shown = np.clip(np.where(np.isinf(rel), hi, rel), lo, hi)
+            st = sty.get(lab, {})
+            ax.plot(x, shown, label=lab, **st)
+            for sel, y_edge, marker in ((rel > hi, hi, "^"), (rel < lo, lo, "v")):
+                idx = np.flatnonzero(sel & ~np.isnan(rel))
+                if idx.size:
+                    idx = idx[:: max(1, idx.size // 8)]
+                    ax.plot(
+                        x[idx], np.full(idx.size, y_edge), linestyle="none", marker=marker,
+                        ms=5, color=st.get("color"), clip_on=False, zorder=4,
+                    )  # fmt: skip
         ax.set_xscale("log")
-        ax.set_yscale("symlog", linthresh=linthresh, linscale=0.5)
-        ax.set_ylim(*ylim)
-        _finish_log_axes(ax, "distance in light radii d / r", _ERR_LABEL, title, legend)
+        ax.set_yscale("log")
+        ax.set_ylim(lo, hi)
+        ax.yaxis.set_major_formatter(mpl.ticker.FuncFormatter(lambda v, _p: f"{100 * v:g}%"))
+        ax.yaxis.set_minor_formatter(mpl.ticker.NullFormatter())
+        plain_log_ticks(ax.xaxis)
+        ax.set_xlabel(f"distance from the light's centre in radii, d / r (r = {r:g} m)")
+        ax.set_ylabel("|relative error| (▲ above, ▼ below the axis)")
+        if title:
+            ax.set_title(title)
+        _legend(ax, legend)
     return fig, ax
 
 
@@ -227,13 +250,15 @@ def plot_plane_image(
     vmax: float | None = None,
     title: str | None = None,
     colorbar: bool = True,
+    unit: str = "m",
     ax=None,
 ):
     """Irradiance on a receiving plane as an image, log colour scale (W/m² for a 1 W/sr light).
 
-    `E[i, j]` is the irradiance at row i (y) and column j (x); `extent` = (x0, x1, y0, y1) in m.
-    The colour scale spans `vmin`..`vmax` (default: four decades below the peak). Returns
-    `(fig, ax)`.
+    `E[i, j]` is the irradiance at row i (y) and column j (x); `extent` = (x0, x1, y0, y1) in
+    `unit` (m, or "r" for light radii). The colour scale (inferno, perceptual) spans
+    `vmin`..`vmax` (default: four decades below the peak); brighter pixels saturate at the top
+    colour (draw the colour bar with `extend="max"`). Returns `(fig, ax)`.
     """
     import matplotlib as mpl
     from matplotlib.colors import LogNorm
@@ -251,8 +276,8 @@ def plot_plane_image(
             norm=LogNorm(vmin=vmin, vmax=vmax),
             cmap="inferno",
         )
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
+        ax.set_xlabel(f"x ({unit})" if unit == "m" else f"x / {unit}")
+        ax.set_ylabel(f"y ({unit})" if unit == "m" else f"y / {unit}")
         ax.grid(False)
         if title:
             ax.set_title(title)
@@ -271,6 +296,7 @@ def plot_error_map(
     linthresh: float | None = 1e-2,
     title: str | None = None,
     colorbar: bool = True,
+    unit: str = "m",
     ax=None,
 ):
     """A diverging map of a plane image's relative error, centred on 0 (white = exact).
@@ -296,8 +322,8 @@ def plot_error_map(
             cmap="RdBu_r",
             norm=norm,
         )
-        ax.set_xlabel("x (m)")
-        ax.set_ylabel("y (m)")
+        ax.set_xlabel(f"x ({unit})" if unit == "m" else f"x / {unit}")
+        ax.set_ylabel(f"y ({unit})" if unit == "m" else f"y / {unit}")
         ax.grid(False)
         if title:
             ax.set_title(title)
@@ -353,6 +379,7 @@ def plot_plane_comparison(
     truth_label: str = "truth",
     ncols: int = 5,
     vmax_error: float = 1.0,
+    unit: str = "m",
     fig=None,
 ):
     """The true plane image followed by one error map per model, on a grid with shared colour bars.
@@ -370,7 +397,9 @@ def plot_plane_comparison(
         axes = np.atleast_2d(fig.subplots(nrows, ncols, squeeze=False))
         flat = axes.ravel()
         t = np.asarray(truth, dtype=np.float64)
-        _, a0 = plot_plane_image(t, extent, title=truth_label, ax=flat[0], colorbar=False)
+        _, a0 = plot_plane_image(
+            t, extent, title=truth_label, ax=flat[0], colorbar=False, unit=unit
+        )
         plain_log_ticks(
             fig.colorbar(a0.images[0], ax=flat[0], label="E (W/m²)", shrink=0.85).ax.yaxis
         )
@@ -383,6 +412,7 @@ def plot_plane_comparison(
                 title=lab,
                 ax=ax,
                 colorbar=False,
+                unit=unit,
             )
             last = ax
         for ax in flat[n:]:
@@ -403,4 +433,50 @@ def plot_plane_comparison(
                 aspect=30,
             )
             plain_log_ticks(cb.ax.yaxis)
+    return fig, axes
+
+
+def plot_plane_models(
+    truth: ArrayLike,
+    models: Mapping[str, ArrayLike],
+    extent: tuple[float, float, float, float],
+    *,
+    truth_label: str = "truth",
+    vmax_error: float = 1.0,
+    unit: str = "m",
+    fig=None,
+):
+    """The truth once, then each model's image (top row) over its error map (bottom row).
+
+    Every image shares one log colour scale (inferno) set by the truth, four decades down
+    from its peak; brighter model pixels saturate (the colour bar's arrow). Error maps share
+    one diverging scale (`plot_error_map`). Returns `(fig, axes)` (2 x (1 + len(models))).
+    """
+    import matplotlib as mpl
+
+    with mpl.rc_context(STYLE):
+        n = len(models)
+        if fig is None:
+            fig = new_figure((2.7 * (n + 1) + 1.2, 5.4))
+        axes = np.atleast_2d(fig.subplots(2, n + 1, squeeze=False))
+        t = np.asarray(truth, dtype=np.float64)
+        vmax = float(np.nanmax(t))
+        plot_plane_image(t, extent, vmax=vmax, title=truth_label, ax=axes[0, 0], colorbar=False,
+                         unit=unit)  # fmt: skip
+        axes[1, 0].set_visible(False)
+        for j, (lab, img) in enumerate(models.items(), start=1):
+            m = np.asarray(img, dtype=np.float64)
+            plot_plane_image(m, extent, vmax=vmax, title=lab, ax=axes[0, j], colorbar=False,
+                             unit=unit)  # fmt: skip
+            plot_error_map(_image_rel(m, t), extent, vmax=vmax_error, title=f"{lab}: error",
+                           ax=axes[1, j], colorbar=False, unit=unit)  # fmt: skip
+        cb = fig.colorbar(axes[0, 0].images[0], ax=list(axes[0]), label="irradiance E (W/m²)",
+                          extend="max", shrink=0.9)  # fmt: skip
+        plain_log_ticks(cb.ax.yaxis)
+        if n:
+            cb = fig.colorbar(axes[1, 1].images[0], ax=list(axes[1, 1:]), label=_ERR_LABEL,
+                              extend="both", shrink=0.9)  # fmt: skip
+            plain_log_ticks(cb.ax.yaxis)
+        for ax in axes.ravel():
+            ax.locator_params(nbins=4)
     return fig, axes

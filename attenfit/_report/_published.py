@@ -22,6 +22,21 @@ def range_of(model: Any) -> float | None:
     return None if p is None else float(np.asarray(getattr(model, p)))
 
 
+def range_params(cls: type) -> tuple[str, ...]:
+    """The parameters that set a family's range (r_max, cutoff, range, d_max, and
+    `madams_cutoff`'s irradiance cutoff): the user's budget, which the report never fits."""
+    out = [] if cls.range_param is None else [cls.range_param]
+    if cls.name == "madams_cutoff":
+        out.append("cutoff")
+    return tuple(out)
+
+
+def shape_free(cls: type) -> tuple[str, ...]:
+    """The parameters the report fits: the family's default free ones less its range."""
+    fixed = set(range_params(cls))
+    return tuple(p for p in cls.default_free if p not in fixed)
+
+
 #: How `published_params` chooses each family's parameters, as written into report.md.
 PUBLISHED_RULES: tuple[str, ...] = (
     'a light radius (`r`; `r_min` of `clamped` and `cryengine_linear`, "the radius of the '

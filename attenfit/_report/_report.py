@@ -18,8 +18,8 @@ from .._errors import UnknownNameError
 from . import _figures
 from . import _metrics as M
 from ._configs import MODES, WINDOWED, Config
+from ._decide import decide, decision_markdown
 from ._markdown import (
-    cell_error,
     describe_emitter,
     emitter_dict,
     fmt_num,
@@ -30,6 +30,8 @@ from ._markdown import (
     md_row,
 )
 from ._published import PUBLISHED_RULES
+from ._summary import FIT_WHAT
+from ._summary import summary_markdown as _summary_markdown
 
 
 # ============================================================================ the report
@@ -58,6 +60,8 @@ class Report:
     _prerendered: dict[str, tuple[bytes, bytes | None]] = dataclasses.field(
         default_factory=dict, repr=False
     )
+    #: The Mitsuba witness (`_witness.witness_section`), set by `attenfit report`; or None.
+    witness: Any = None
 
     # ------------------------------------------------------------------ access
     def result(self, family: str, config: str, mode: str = "published") -> dict[str, Any]:
@@ -107,9 +111,12 @@ class Report:
                 "meta": self.meta,
                 "families": self.families,
                 "configurations": cfgs,
+                "decisions": self.decisions(),
+                "witnesses": [{k: v for k, v in w.items() if k != "z"} for w in self.witnesses()],
                 "findings": self.findings,
                 "costs": self.costs,
                 "results": self.results,
+                "witness": None if self.witness is None else self.witness.data,
             }
         )
 
@@ -156,57 +163,84 @@ class Report:
                     "plane_energy_discarded": en.get("discarded_fraction"),
                     "image_max_abs": img.get("max_abs"),
                     "image_rms": img.get("rms"),
+                    **{
+                        f"{k}_max_abs": (
+                            ((r.get("receivers") or {}).get(k) or {}).get("overall") or {}
+                        ).get("max_abs")
+                        for k in ("facing", "floor", "random")
+                    },
                     "ns_per_eval": (self.costs.get(r["family"]) or {}).get("ns_per_eval"),
                 }
             )
         return rows
 
     def summary_markdown(self) -> str:
-        """The summary table: one row per family, worst error per configuration and mode."""
-        sweeps = [c for c in self.configs if c.sweep is not None]
-        head = ["family"]
-        for c in sweeps:
-            head += [f"{c.name}: published", f"{c.name}: fitted"]
-        zero_cfg = next((c for c in sweeps if c.sweep.truth0 is not None), None)
-        if zero_cfg is not None:
-            head.append(f"f(0) / truth(0), {zero_cfg.name}")
-        plane_cfg = next(
-            (c for c in self.configs if c.plane is not None and c.plane.rho is not None), None
+        """The summary table: every family on each light's three receiver sets, published /
+        fitted, the floor energy of each light and the compiled cost (`_summary`)."""
+        return _summary_markdown(self)
+
+    def decisions(self) -> list[dict[str, Any]]:
+        """The decision table's entries, "Which curve for which light" (`_decide.decide`)."""
+        return decide(self)
+
+    def decision_markdown(self) -> str:
+        """The decision table as Markdown (empty without a light that has receiver sets)."""
+        label = next(iter(self.costs.values())).get("cost_label", "") if self.costs else ""
+        return decision_markdown(self.decisions(), label)
+
+    def witness_markdown(self, figures: Mapping[str, str] | None = None) -> str:
+        """The independent witness: Monte Carlo datasets (e.g. Mitsuba, `--mitsuba`) against
+        the exact values, as z-scores; empty when the report has none (see `witnesses`)."""
+        rows = self.witnesses()
+        if not rows:
+            return ""
+        figures = figures or {}
+        lines = [
+            md_row(["dataset", "generator", "receivers", "median |z|", "max |z|"]),
+            md_row(["---", "---", "---:", "---:", "---:"]),
+        ]
+        for w in rows:
+            lines.append(
+                md_row(
+                    [
+                        w["config"],
+                        w["source"],
+                        w["n"],
+                        fmt_num(w["median_abs_z"]),
+                        fmt_num(w["max_abs_z"]),
+                    ]
+                )
+            )
+        out = (
+            "z = (exact − Monte Carlo) / its standard error at each receiver; for an unbiased "
+            "renderer |z| has median 0.674 (a standard normal's).\n\n" + "\n".join(lines) + "\n"
         )
-        if plane_cfg is not None:
-            head.append(f"plane energy / truth, {plane_cfg.name}")
-        head.append("shader cost")
-        lines = [md_row(head), md_row(["---"] + ["---:"] * (len(head) - 1))]
-        for fam in self.families:
-            row = [f"`{fam}`"]
-            for c in sweeps:
-                for mode in MODES:
-                    row.append(cell_error(self._get(fam, c.name, mode)))
-            if zero_cfg is not None:
-                z = ((self._get(fam, zero_cfg.name, "published") or {}).get("sweep") or {}).get(
-                    "at_zero"
-                ) or {}
-                row.append(fmt_num(z.get("ratio"), inf_text="∞ (singular)"))
-            if plane_cfg is not None:
-                en = ((self._get(fam, plane_cfg.name, "published") or {}).get("plane") or {}).get(
-                    "energy"
-                ) or {}
-                row.append(fmt_num(en.get("ratio")))
-            row.append(fmt_num((self.costs.get(fam) or {}).get("shader_cost"), digits=3))
-            lines.append(md_row(row))
-        note = (
-            "Cells: the largest |relative error| (model − truth)/truth over each configuration's "
-            "sweep (windowed families, marked ᵂ: over the inner half of their range, d ≤ range/2; "
-            "near the range every window must deviate, and beyond it it is black by design; the "
-            "report's Windows table has the rest). *published*: the source's parameters for this light; *fitted*: least squares "
-            "on the relative error. Plane energy: the published curve on the plane with the "
-            f"light {'touching it' if plane_cfg is not None and plane_cfg.kind == 'sphere' else 'above it'}. "
-            "Shader cost: "
-            + (next(iter(self.costs.values())).get("cost_label", "") if self.costs else "")
-            + " of the shader form `attenfit export` writes (`attenfit.cost.compiled_cost`; "
-            "measured times are in report.json and results.csv)."
-        )
-        return "\n".join(lines) + "\n\n" + note + "\n"
+        for w in rows:
+            k = f"{w['config']}_witness_z"
+            if k in figures:
+                out += f"\n![{w['config']}: z-scores]({figures[k]})\n"
+        return out
+
+    def witnesses(self) -> list[dict[str, Any]]:
+        """Per dataset configuration with standard errors: the z-scores of the exact values
+        against it (`config`, `source`, `n`, `median_abs_z`, `max_abs_z`, `z`)."""
+        out = []
+        for c in self.configs:
+            z = getattr(c, "witness_z", None)
+            if z is None or not np.size(z):
+                continue
+            a = np.abs(np.asarray(z, np.float64))
+            out.append(
+                {
+                    "config": c.name,
+                    "source": c.source,
+                    "n": int(a.size),
+                    "median_abs_z": float(np.median(a)),
+                    "max_abs_z": float(np.max(a)),
+                    "z": np.asarray(z, np.float64),
+                }
+            )
+        return out
 
     def cost_markdown(self) -> str:
         """One row per family: compiled cost of the shader and stable forms, the float16 band
@@ -342,6 +376,11 @@ class Report:
             "Every number is in `report.json`, one row per family × configuration × mode in "
             "`results.csv`. Lights have unit intensity; distances in m, attenuation in 1/m².",
             "",
+        ]
+        dec = self.decision_markdown()
+        if dec:
+            out += ["## Which curve for which light", "", dec]
+        out += [
             "## Summary",
             "",
             self.summary_markdown(),
@@ -351,6 +390,9 @@ class Report:
             "",
             self.findings_markdown(),
         ]
+        wit = self.witness_markdown(figures)
+        if wit:
+            out += ["## Independent witness: the truth checked by a Monte Carlo renderer", "", wit]
         win = self.windows_markdown()
         if win:
             out += ["### Windows: what each range costs inside it and what it drops", "", win]
@@ -360,17 +402,18 @@ class Report:
             out += ["## Cost against error", "", self.cost_markdown(), ""]
         if "cost_vs_error" in figures:
             out += [f"![cost against error]({figures['cost_vs_error']})", ""]
+        if self.witness is not None:
+            out += [self.witness.markdown(figures.get("witness_z"))]
         out += [
             "## How the numbers were made",
             "",
             f"* Truth: {', '.join(sorted({c.source for c in self.configs}))}; computed in float64.",
             "* As published (`published_params`):",
             *(f"  * {rule}" for rule in PUBLISHED_RULES),
-            "* Fitted: `attenfit.fit_many` (every family in one solve), relative loss, each family's "
-            "default free parameters, "
-            "started from the published values; windowed families are fitted inside their "
-            "range only (weights 0 beyond it). A fit that does not converge is marked and its "
-            "numbers are not shown.",
+            "* Fitted: `attenfit.fit_many` (every family in one solve), started from the "
+            f"published values; {FIT_WHAT[len('*fitted*: ') :]}. A family whose only parameter "
+            "is its range keeps its published values. A fit that does not converge is marked "
+            "and its numbers are not shown.",
             "* Bands: near d < r, mid r ≤ d ≤ 10 r, far d > 10 r. Plane images: relative error "
             "against max(truth, 1e-6 × peak).",
             "* Cost: "
@@ -443,7 +486,8 @@ class Report:
         note = (
             "max/rms/near/mid/far/in range: |relative error|; f(0)/truth: the curve at d = 0 over "
             "the true limit; edge value and slope: f and f′ just inside the range relative to "
-            "inverse-square there (0 = the window closes; slope 0 = smoothly)."
+            "inverse-square there (0 = the window closes; slope 0 = smoothly). "
+            f"{FIT_WHAT[0].upper()}{FIT_WHAT[1:]}."
         )
         return "\n".join(lines) + "\n\n" + note
 
@@ -467,10 +511,23 @@ class Report:
         check_output_path(folder, force=force, folder=True)
         with atomic_dir(folder, force=force) as tmp:
             figs = self.write_figures(tmp / "figures", dpi=dpi, svg=svg, progress=progress)
+            if self.witness is not None:
+                figs["witness_z"] = tmp / "figures" / "witness_z.png"
+                figs["witness_z"].write_bytes(self.witness.png)
             if progress is not None:
                 progress("tables: report.md, report.json, results.csv")
             rel = {k: f"figures/{Path(v).name}" for k, v in figs.items()}
-            (tmp / "report.md").write_text(self.markdown(rel), encoding="utf-8")
+            md = self.markdown(rel)
+            if "ceiling" in self.meta:  # the section of `_ceiling`, drawn from its numbers
+                from ._ceiling import ceiling_section
+
+                md += (
+                    "\n"
+                    + ceiling_section(tmp / "figures", data=self.meta["ceiling"], dpi=dpi, svg=svg)[
+                        0
+                    ]
+                )
+            (tmp / "report.md").write_text(md, encoding="utf-8")
             (tmp / "report.json").write_text(
                 json.dumps(self.to_dict(), indent=1, allow_nan=False) + "\n", encoding="utf-8"
             )

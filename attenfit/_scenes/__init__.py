@@ -1,10 +1,19 @@
 """Stage 6, scenes: a scene file (`_toml`) read into a `Scene` (`_scene`, `_types`), its
 ground truth at exactly its receivers (`_truth`), every family fitted there (`_fits`) and
-the cheapest within its tolerance recommended (`_recommend`, `_recommendation`).
+the cheapest within its tolerance recommended (`_recommend`, `_recommendation`). USD and
+glTF files (`_usd`, `_gltf`, `_sample`, `_files`) are answered per light for an engine
+(`_engine`, `_choices`, `_answer`) and written back (`_writeback`).
 
 Imports every stage below it (curves, truth, fitting, shaders, report's plots).
 """
 
+from ._answer import FileAnswer as FileAnswer
+from ._answer import answer_file as answer_file
+from ._choices import LightChoice as LightChoice
+from ._engine import ENGINES as ENGINES
+from ._files import SIDE_KEYS as SIDE_KEYS
+from ._files import ImportedScene as ImportedScene
+from ._files import load_mesh_scene as load_mesh_scene
 from ._recommend import recommend as recommend
 from ._recommendation import Candidate as Candidate
 from ._recommendation import Recommendation as Recommendation

@@ -281,7 +281,7 @@ def spot_variants(
     if measure:
         timed = measure_throughput([SpotFrostbite(), SpotThreeJS()], n=1 << 16, repeats=5)
         ns = {c: timed[cls.name][0] for c, cls in SPOT_FALLOFFS.items()}
-    for curve in ("frostbite", "threejs"):
+    for curve in scene.spot_falloffs or ("frostbite", "threejs"):
         for fitted in (False, True):
             models: list[SpotFalloff | None] = []
             gs = []

@@ -73,18 +73,21 @@ def check_reaches_zero(model: Family, R: float) -> str | None:
     return f"does not reach 0 at the range {R:g} (f = {where:.3g} there)"
 
 
-def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
+def recommend(
+    scene: Scene, *, measure: bool = False, truths: Sequence[LightTruth] | None = None
+) -> Recommendation:
     """Fit and judge every family on `scene`; recommend the cheapest within tolerance.
 
     See the module docstring for how the truth is generated, fitted, judged and ranked.
     `measure=True` also times each candidate on this machine (reported beside the compiled
-    cost, which ranks; a few seconds more).
+    cost, which ranks; a few seconds more). `truths`: the scene's `ground_truth()`, when
+    the caller has it already.
     """
     if not isinstance(scene, Scene):
         raise BadTypeError(f"recommend takes an attenfit.Scene, got {type(scene).__name__}")
     n_receivers = sum(_receiver_count(r) for r in scene.receivers)
     _progress.stage(f"ground truth: {len(scene.lights)} lights, up to {n_receivers} receivers each")
-    truths = scene.ground_truth()
+    truths = scene.ground_truth() if truths is None else tuple(truths)
     datas = [light_data(scene, t) for t in truths]
     for k, x in enumerate(datas):
         if x.d.size == 0:
@@ -239,6 +242,13 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
     judged = [c for c in candidates if c.error is not None and math.isfinite(c.error)]
     closest = min(judged, key=lambda c: (c.error, c.shader_cost)) if judged else None
     shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
+    area = None
+    if winner is None:  # no f(d) meets the tolerance: try the area models (_escalate)
+        from ._escalate import escalate
+
+        _progress.stage("no family meets the tolerance: area-light models")
+        area = escalate(scene, truths, datas, closest)
+        shaders = area.shaders if area is not None and area.winner is not None else shaders
     truth = tuple(_truth_summary(scene, t, x) for t, x in zip(truths, datas, strict=True))
     return Recommendation(
         scene=scene,
@@ -251,7 +261,14 @@ def recommend(scene: Scene, *, measure: bool = False) -> Recommendation:
         directional_fits=tuple(directional_fits),
         measured=bool(measure),
         curves=curves,
+        angles=np.concatenate(  # a spot's receivers: their angle from its axis, for the plot
+            [
+                np.degrees(x.theta) if x.spot is not None else np.full(x.d.shape, np.nan)
+                for x in datas
+            ]
+        ),
         cost_label=cost_label,
+        area=area,
     )
 
 
@@ -273,6 +290,9 @@ def _fit_family(
     try:
         results: list[Any] = [None] * len(datas)
         plans = [fit_plan(cls, x, d_hi, knots) for x in datas]
+        pins = (scene.fixed or {}).get(name, {})
+        if pins:  # what the engine fixes is not fitted
+            plans = [({**v, **pins}, tuple(p for p in f if p not in pins)) for v, f in plans]
         for free in dict.fromkeys(p[1] for p in plans):
             group = [k for k, p in enumerate(plans) if p[1] == free]
             out = fit_group(cls, [datas[k] for k in group], [plans[k] for k in group])

@@ -104,6 +104,11 @@ class Recommendation:
         default_factory=dict, repr=False, compare=False
     )
     cost_label: str = ""
+    #: When no family meets the tolerance: the area-light models judged (`_escalate`).
+    area: Any = None
+    #: Per judged receiver (the order of `curves`): its angle from its spot's axis in degrees,
+    #: NaN for a light that is not a spot (`plot_errors` draws spots' errors against it).
+    angles: np.ndarray | None = dataclasses.field(default=None, repr=False, compare=False)
 
     @property
     def tolerance(self) -> float:
@@ -120,7 +125,8 @@ class Recommendation:
             )
         c = self.closest
         closest = f"; closest: {c.label} with max error {pct(c.error)}" if c else ""
-        return f"no family meets the tolerance {tol}{closest}"
+        families = f"no family meets the tolerance {tol}{closest}"
+        return families if self.area is None else self.area.summary(families)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready dict (the scene, the generated configurations, every candidate)."""
@@ -143,6 +149,7 @@ class Recommendation:
             "truth": list(self.truth),
             "directional_fits": list(self.directional_fits),
             "shaders": dict(self.shaders),
+            "area": None if self.area is None else self.area.to_dict(),
         }
 
     def to_markdown(self) -> str:
@@ -197,6 +204,8 @@ class Recommendation:
             lines += [f"## Closest: {c.label}", "", f"max error {pct(c.error)}: {c.reason}", ""]
             lines += _param_lines(c)
             lines.append("")
+        if self.area is not None:
+            lines += self.area.markdown()
         if self.shaders:
             lines += [
                 "## The winner as GLSL",
@@ -250,8 +259,12 @@ class Recommendation:
             (tmp / "recommendation.json").write_text(
                 json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
             )
+            stem = None
             if self.winner is not None:
                 stem = _ident(self.winner.family)
+            elif self.area is not None and self.area.winner is not None:
+                stem = _ident(f"area_{self.area.winner.model}")
+            if stem is not None:
                 for lang, text in self.shaders.items():
                     (tmp / f"{stem}.{lang}").write_text(text, encoding="utf-8")
             fig, _ = self.plot_errors()
@@ -315,17 +328,23 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
             and math.isfinite(c.error)
         ):
             picks.append(c)
+    angles = rec.angles
+    spots = angles is not None and bool(np.any(np.isfinite(angles)))
     with matplotlib.rc_context({"font.size": 9, "axes.grid": True, "grid.alpha": 0.3}):
         if ax is None:
-            fig, ax = plt.subplots(figsize=(7, 4.2))
-        else:
-            fig = ax.figure
+            fig, axes = plt.subplots(
+                1, 2 if spots else 1, figsize=(11.5 if spots else 8.2, 4.4), squeeze=False,
+                layout="constrained",
+            )  # fmt: skip
+            ax, ax_spot = axes[0, 0], (axes[0, 1] if spots else None)
+        else:  # one given axes: the spot receivers are drawn against d/r too
+            fig, ax_spot = ax.figure, None
         markers = "os^vDP*X"
         floor = rec.tolerance * 1e-4  # smaller errors (exact to rounding) are drawn here
         for k, c in enumerate(picks):
             x, e = rec.curves[c.family]
-            order = np.argsort(x)
-            e = np.maximum(e[order], floor)
+            e = np.maximum(e, floor)
+            on_spot = np.isfinite(angles) if ax_spot is not None else np.zeros(x.shape, bool)
             role = (
                 "winner"
                 if c is rec.winner
@@ -335,16 +354,38 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
                 if c is rec.closest
                 else c.status
             )
-            ax.plot(
-                x[order], e, markers[k % len(markers)], ms=3, alpha=0.7,
-                label=f"{c.label} ({role}, max {pct(c.error)})",
-            )  # fmt: skip
-        ax.axhline(rec.tolerance, color="k", ls="--", lw=1, label=f"tolerance {pct(rec.tolerance)}")
+            style = dict(marker=markers[k % len(markers)], ls="none", ms=3, alpha=0.7,
+                         color=f"C{k}")  # fmt: skip
+            order = np.argsort(x)
+            ax.plot(x[order], e[order], label=f"{c.label} ({role}, max {pct(c.error)})",
+                    **style)  # fmt: skip
+            if ax_spot is not None:
+                ax_spot.plot(angles[on_spot], e[on_spot], **style)
+        for a in (ax, ax_spot):
+            if a is None:
+                continue
+            a.axhline(rec.tolerance, color="k", ls="--", lw=1)
+            a.set_yscale("log")
+            a.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
+        ax.plot([], [], color="k", ls="--", lw=1, label=f"tolerance {pct(rec.tolerance)}")
         ax.set_xscale("log")
-        ax.set_yscale("log")
+        from .._report._plots import plain_log_ticks
+
+        for a in (ax, ax_spot):
+            if a is not None:
+                plain_log_ticks(a.yaxis)
+        plain_log_ticks(ax.xaxis)
         ax.set_xlabel("d / r (distance from the light's centre over its radius)")
-        ax.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
-        ax.set_title(f"{rec.scene.name or rec.scene.source}: error at the scene's receivers")
-        ax.legend(fontsize=7, loc="best")
-        fig.tight_layout()
+        name = str(rec.scene.name or rec.scene.source).replace("$", r"\$")  # a name, not mathtext
+        title = f"{name}: error at the scene's receivers"
+        if ax_spot is not None:
+            ax.set_title("every light: error against distance")
+            ax_spot.set_xlabel("angle from the spot's axis (degrees)")
+            ax_spot.set_title("spotlights: error against angle")
+            fig.suptitle(title, fontsize=10)
+        else:
+            ax.set_title(title)
+        # outside the data: to the right of the last axes
+        (ax_spot or ax).legend(*ax.get_legend_handles_labels(), fontsize=7,
+                               loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)  # fmt: skip
     return fig, ax

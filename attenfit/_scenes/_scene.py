@@ -7,10 +7,13 @@ import os
 from collections.abc import Mapping
 from typing import Any
 
+from .. import _budget
 from ._toml import parse_scene, read_toml
 from ._truth import light_truth
 from ._types import (
     LightTruth,
+    PlaneReceivers,
+    PointReceivers,
     Receivers,
     SceneLight,
 )
@@ -36,6 +39,11 @@ class Scene:
     description: str = ""
     seed: int = 0
     source: str = "<scene>"
+    #: Parameters an engine fixes, per family (`{"frostbite_window": {"r_min": 0.01}}`): pinned,
+    #: not fitted. Set by `--engine`; a TOML scene has none.
+    fixed: Mapping[str, Mapping[str, float]] | None = None
+    #: The spot falloffs ("frostbite", "threejs") an engine can express; None: both.
+    spot_falloffs: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if self.float32 and self.precision == "float64":  # `float32=True` says float32
@@ -82,4 +90,35 @@ class Scene:
         every light (world positions); a distribution is drawn around each light
         (deterministic in `seed` and the light's index).
         """
+        check_memory(self)
         return tuple(light_truth(self, i) for i in range(len(self.lights)))
+
+
+#: Peak memory of `attenfit scene` per (light, receiver) pair and its baseline, measured by
+#: `python -m benchmarks memory` (0.8 kB a pair above about 1 GB) and rounded up.
+BYTES_PER_PAIR = 1024
+BYTES_BASE = 1 << 30
+
+
+def receiver_count(receivers: tuple[Receivers, ...]) -> int:
+    """How many receivers the scene's receiver tables hold (for each light)."""
+    total = 0
+    for r in receivers:
+        if isinstance(r, PlaneReceivers):
+            total += r.resolution**2
+        elif isinstance(r, PointReceivers):
+            total += len(r.points)
+        else:
+            total += int(r.n)
+    return total
+
+
+def check_memory(scene: Scene) -> None:
+    """Refuse, before any work, a scene whose truth and fits would exceed the memory budget."""
+    n = receiver_count(scene.receivers)
+    pairs = n * len(scene.lights)
+    _budget.check(
+        BYTES_BASE + BYTES_PER_PAIR * pairs,
+        f"{scene.source}: {len(scene.lights)} lights x {n:,} receivers",
+        "fewer receivers (a plane's resolution, a distribution's n) or fewer lights",
+    )

@@ -50,18 +50,25 @@ def inside_light(em: AbstractEmitter, pts: np.ndarray, margin: float) -> np.ndar
     return _distance_to(em, pts) <= float(em.radius) * (1 + margin)
 
 
+def _length(v: np.ndarray) -> np.ndarray:
+    """|v| per row, by hypot: no overflow for coordinates up to the largest float."""
+    return np.hypot(np.hypot(v[:, 0], v[:, 1]), v[:, 2])
+
+
 def _distance_to(em: AbstractEmitter, pts: np.ndarray) -> np.ndarray:
     """Distance of each point from the light's centre (capsule: from its segment)."""
     if isinstance(em, CapsuleEmitter):
         a = np.asarray(em.a, dtype=np.float64)
         ab = np.asarray(em.b, dtype=np.float64) - a
-        t = np.clip((pts - a) @ ab / float(ab @ ab), 0, 1)
-        return np.linalg.norm(pts - (a + t[:, None] * ab), axis=1)
-    return np.linalg.norm(pts - np.asarray(em.reference_point(), dtype=np.float64), axis=1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            t = np.nan_to_num(np.clip((pts - a) @ ab / float(ab @ ab), 0, 1))
+        return _length(pts - (a + t[:, None] * ab))
+    return _length(pts - np.asarray(em.reference_point(), dtype=np.float64))
 
 
 def _unit(v: Sequence[float]) -> np.ndarray:
     v = np.asarray(v, dtype=np.float64)
+    v = v / np.max(np.abs(v))  # first to the order of 1: |v|^2 of [0, 0, 1e-200] underflows to 0
     return v / np.linalg.norm(v)
 
 
@@ -173,11 +180,18 @@ def spot_profile(light: SceneLight, theta: np.ndarray) -> np.ndarray:
     return np.where(theta <= a - b, 1.0, np.where(theta >= a + b, 0.0, frac))
 
 
+#: Receivers farther than this many light radii are refused: the curves are vouched for up to
+#: 1e12 r (tests/test_families_stability.py), and the irradiance there underflows anyway.
+_MAX_D_OVER_R = 1e12
+
+
 def light_truth(scene: Scene, i: int) -> LightTruth:
     light = scene.lights[i]
     em = light.emitter()
     pts_list, nrm_list, src = [], [], []
     for j, rec in enumerate(scene.receivers):
+        if isinstance(rec, PointReceivers) and rec.light not in (None, i):
+            continue
         if isinstance(rec, PlaneReceivers):
             p, n = _plane_points(rec)
         elif isinstance(rec, PointReceivers):
@@ -192,7 +206,8 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
                 )
                 n[~np.any(n != 0, axis=1)] = (0.0, 0.0, 1.0)
             else:
-                n = np.asarray([_unit(v) for v in rec.normals])
+                n = np.asarray(rec.normals, dtype=np.float64).reshape(-1, 3)
+                n = n / np.linalg.norm(n, axis=1, keepdims=True)
         else:
             rng = np.random.default_rng([scene.seed, i, j])
             p, n = _distribution_points(light, em, rec, rng)
@@ -200,11 +215,20 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
         pts_list.append(p[keep])
         nrm_list.append(n[keep])
         src.extend([f"[[receivers]][{j}]"] * int(keep.sum()))
-    pts = np.concatenate(pts_list)
-    nrm = np.concatenate(nrm_list)
+    pts = np.concatenate(pts_list) if pts_list else np.zeros((0, 3))
+    nrm = np.concatenate(nrm_list) if nrm_list else np.zeros((0, 3))
     if len(pts) == 0:
         raise BadValueError(
             f"{scene.source}: [[lights]][{i}]: every receiver lies inside this light"
+        )
+    d = _distance_to(em, pts)
+    far = float(np.max(d)) / float(light.radius)
+    if not far <= _MAX_D_OVER_R:
+        where = src[int(np.argmax(d))]
+        raise BadValueError(
+            f"{scene.source}: {where}: a receiver lies {far:.3g} radii from [[lights]][{i}] "
+            f"({float(np.max(d)):.3g} m), "
+            f"beyond the {_MAX_D_OVER_R:.0e} radii within which attenfit judges a curve"
         )
     E = np.asarray(irradiance(em, jnp.asarray(pts), jnp.asarray(nrm)), dtype=np.float64)
     if not np.all(np.isfinite(E)):  # a bug, not a user error: receivers inside were removed
@@ -232,10 +256,19 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
     else:
         theta = np.zeros(len(pts))
     profile = spot_profile(light, theta)
-    d = _distance_to(em, pts)
     weight = np.asarray(ds.weight(), dtype=np.float64)
     within = np.ones(len(pts), bool) if light.range is None else d <= light.range
     judged = within & (weight > 0)
+    if not np.any(judged & (profile > 0)):
+        why = (
+            "inside its range, in front of it and inside its cone"
+            if light.is_spot
+            else "inside its range and in front of it"
+        )
+        raise BadValueError(
+            f"{scene.source}: [[lights]][{i}]: no receiver lies {why}: there is nothing to judge "
+            "a curve on (aim the light at a receiver, or add receivers it reaches)"
+        )
     unlit = int(np.sum(within & ~(weight > 0) & (E * profile > 0)))
     return LightTruth(
         light=i,

@@ -121,16 +121,27 @@ class PlaneReceivers:
 
 @dataclasses.dataclass(frozen=True)
 class PointReceivers:
-    """Explicit receivers; `normals` None means each receiver faces the light it is lit by."""
+    """Explicit receivers; `normals` None means each receiver faces the light it is lit by.
 
-    points: tuple[tuple[float, float, float], ...]
-    normals: tuple[tuple[float, float, float], ...] | None = None
+    `light` set to a light's index makes them that light's receivers only (a USD or glTF
+    scene samples each light's receivers where it reaches); None, every light's. Points
+    and normals may be tuples or (n, 3) float64 arrays (a sampled scene's thousands).
+    """
+
+    points: Any
+    normals: Any = None
+    light: int | None = None
     kind: str = dataclasses.field(default="points", init=False)
 
     def to_dict(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"kind": self.kind, "points": [list(p) for p in self.points]}
+        out: dict[str, Any] = {
+            "kind": self.kind,
+            "points": [[float(x) for x in p] for p in self.points],
+        }
         if self.normals is not None:
-            out["normals"] = [list(n) for n in self.normals]
+            out["normals"] = [[float(x) for x in n] for n in self.normals]
+        if self.light is not None:
+            out["light"] = self.light
         return out
 
 

@@ -223,9 +223,12 @@ def _spirv_classes(listing: str) -> dict[str, int]:
     return counts
 
 
-def _spirv_of(body: str, call: str) -> dict[str, int]:
+def _spirv_of(body: str, call: str, inputs: int = 1) -> dict[str, int]:
+    """Counts of a fragment shader `o = call` reading `v` (`inputs` > 1: `v0`, `v1`, ...)."""
+    names = ["v"] if inputs == 1 else [f"v{i}" for i in range(inputs)]
+    ins = "".join(f"layout(location = {i}) in float {v};\n" for i, v in enumerate(names))
     src = (
-        "#version 450\nlayout(location = 0) in float v;\nlayout(location = 0) out float o;\n"
+        f"#version 450\n{ins}layout(location = 0) out float o;\n"
         f"{body}\nvoid main() {{ o = {call}; }}\n"
     )
     with tempfile.TemporaryDirectory(prefix="attenfit-spirv-") as tmp:
@@ -235,15 +238,19 @@ def _spirv_of(body: str, call: str) -> dict[str, int]:
         return _spirv_classes(_run([_tool("spirv-dis") or "", "o.spv"], tmp))
 
 
-def spirv_counts(glsl: str, fname: str) -> Compiled | None:
-    """SPIR-V instruction counts of the GLSL function `fname(d)` in `glsl` (None: no compiler)."""
+def spirv_counts(glsl: str, fname: str, inputs: int = 1) -> Compiled | None:
+    """SPIR-V instruction counts of the GLSL function `fname(d)` in `glsl` (None: no compiler);
+    `inputs` > 1: a function of that many floats (an area model's), less the shader that
+    returns the first of them."""
     if missing("spirv"):
         return None
     have = compilers()
     tool = f"glslangValidator {have['glslangValidator']} + spirv-opt -O ({have['spirv-opt']})"
+    args = "v" if inputs == 1 else ", ".join(f"v{i}" for i in range(inputs))
+    first = "v" if inputs == 1 else "v0"
 
     def run() -> tuple[int, dict[str, int]]:
-        classes = _diff(_spirv_of(glsl, f"{fname}(v)"), _spirv_of("", "v"))
+        classes = _diff(_spirv_of(glsl, f"{fname}({args})", inputs), _spirv_of("", first, inputs))
         classes.pop("memory", None)
         return sum(classes.values()), classes
 

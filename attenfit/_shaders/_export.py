@@ -95,16 +95,39 @@ def scalar_params(family: Family) -> dict[str, float]:
     """The family's parameters as finite float32 scalars (one problem, not a batch)."""
     out = {}
     for p in family.param_names():
-        value = np.asarray(getattr(family, p), np.float32)
+        value = np.asarray(getattr(family, p), np.float64)
         if value.ndim:
             raise BadValueError(
                 f"family {family.name!r} has parameter {p} of shape {value.shape}; export "
                 "and cost take one set of parameters, not a batch: pick one problem"
             )
-        if not np.isfinite(value):
-            raise BadValueError(f"parameter {p}={value.tolist()} of {family.name!r} is not finite")
-        out[p] = float(value)
+        out[p] = float32_param(family.name, p, float(value))
     return out
+
+
+def float32_param(family: str, name: str, value: float) -> float:
+    """`value` as the float32 a shader computes with, refused (`BadValueError`) when it is
+    not finite there or rounds to 0 or a subnormal (which GPUs flush to 0)."""
+    x = (
+        np.float32(value)
+        if np.isfinite(value) and abs(value) <= float(_F32.max)
+        else np.float32(np.inf)
+    )
+    if not np.isfinite(x):
+        raise BadValueError(
+            f"parameter {name}={value!r} of {family!r} is not a finite float32 "
+            f"(float32 ends at {float(_F32.max):.3g}); a shader cannot hold it"
+        )
+    if value != 0 and abs(float(x)) < _F32.tiny:
+        raise BadValueError(
+            f"parameter {name}={value!r} of {family!r} rounds to {float(x):g} in float32 (normal "
+            f"float32 starts at {float(_F32.tiny):.3g}; GPUs flush smaller values to 0): the "
+            "shader would compute with 0; rescale the scene's units"
+        )
+    return float(x)
+
+
+_F32 = np.finfo(np.float32)
 
 
 def function_source(
@@ -126,6 +149,9 @@ def function_source(
             lines = _header(family, info or {}, lang, fname, uniforms, values, sf)
         text = print_form(sf, lang, fname, values, uniforms=uniforms, header=lines)
         return text, "shader"
+    for p in family.param_names():
+        for x in np.ravel(np.asarray(getattr(family, p), np.float64)):
+            float32_param(family.name, p, float(x))
     prog = trace(family)
     if header:
         values = {p: (v[0] if prog.shapes[p] == () else list(v)) for p, v in prog.values.items()}

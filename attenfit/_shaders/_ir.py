@@ -25,6 +25,8 @@ OPS: Mapping[str, int] = {
     **dict.fromkeys(["add", "sub", "mul", "div", "min", "max", "pow"], 2),
     **dict.fromkeys(["lt", "le", "gt", "ge"], 2),
     **dict.fromkeys(["neg", "sqrt", "rsqrt", "exp", "log", "tan", "cos", "saturate"], 1),
+    **dict.fromkeys(["abs", "atan", "acos"], 1),
+    "atan2": 2,  # atan2(y, x)
     "clamp": 3,  # clamp(x, lo, hi)
     "select": 3,  # select(condition, if_true, if_false)
 }
@@ -76,7 +78,8 @@ class Num(Expr):
 
 @dataclasses.dataclass(frozen=True, eq=False)
 class Ref(Expr):
-    """The distance `d` (kind "d"), a parameter ("param") or a named temporary ("let")."""
+    """A per-receiver input (kind "d": the distance `d`, or an area model's `cos_r`, ...), a
+    parameter ("param") or a named temporary ("let")."""
 
     name: str
     kind: str
@@ -114,7 +117,8 @@ class ShaderForm:
     `lets` are the named temporaries in order, `result` the returned expression, `params` the
     family's parameters it reads. `source` cites the engine's file and function (or the
     textbook equation) it transcribes, `engine` says whether it is an engine's own code, and
-    `note` says where it parts from the JAX reference form.
+    `note` says where it parts from the JAX reference form. `inputs` are the per-receiver
+    arguments (`d` for a family; an area model's `d, cos_r, cos_e, cos_n, g`).
     """
 
     family: str
@@ -124,6 +128,7 @@ class ShaderForm:
     source: str
     engine: bool
     note: str = ""
+    inputs: tuple[str, ...] = ("d",)
 
     def uniform_lets(self) -> set[str]:
         """The temporaries that read parameters only (a compiler folds them when baked)."""
@@ -176,16 +181,23 @@ _NUMPY: Mapping[str, Callable[..., Any]] = {
     "log": np.log,
     "tan": np.tan,
     "cos": np.cos,
+    "abs": np.abs,
+    "atan": np.arctan,
+    "acos": np.arccos,
+    "atan2": np.arctan2,
 }
 
 
 def evaluate_form(
     form: ShaderForm,
-    d: Float[np.ndarray, "*shape"],
+    d: Float[np.ndarray, "*shape"] | Mapping[str, Float[np.ndarray, "*shape"]],
     params: Mapping[str, float],
     dtype: Any = np.float32,
 ) -> Float[np.ndarray, "*shape"]:
     """The form at distances `d`, every operation rounded to `dtype` (float16, 32 or 64).
+
+    A form of several inputs (`form.inputs`, an area model's) takes `d` as a mapping from
+    each input's name to its values (broadcast together).
 
     Parameters and literals are rounded to float32 first (what a shader bakes in), then to
     `dtype`. Temporaries that read parameters only are computed in float32 or wider (a
@@ -194,7 +206,9 @@ def evaluate_form(
     dt = np.dtype(dtype)
     wide = np.promote_types(dt, np.float32)
     uniform = form.uniform_lets()
-    env: dict[str, Any] = {"d": np.asarray(d, np.float64).astype(dt)}
+    given = d if isinstance(d, Mapping) else {"d": d}
+    arrays = np.broadcast_arrays(*(np.asarray(given[k], np.float64) for k in form.inputs))
+    env: dict[str, Any] = {k: a.astype(dt) for k, a in zip(form.inputs, arrays, strict=True)}
     for p in form.params:
         env[p] = np.float32(params[p])
     with np.errstate(all="ignore"):
@@ -206,7 +220,7 @@ def evaluate_form(
         for p in form.params:
             env[p] = np.asarray(env[p]).astype(dt)
         out = _eval(form.result, env, dt)
-    return np.broadcast_to(out, np.shape(d)).astype(dt)
+    return np.broadcast_to(out, arrays[0].shape).astype(dt)
 
 
 def _eval(expr: Expr, env: Mapping[str, Any], dt: np.dtype) -> np.ndarray:

@@ -64,9 +64,11 @@ def load_model(source: Any, *, family: str | None = None) -> tuple[Family, dict[
 def _plain(value: Any) -> Any:
     if isinstance(value, Mapping):
         return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
     arr = np.asarray(value)
     if arr.dtype.kind in "fiub":
-        return arr.item() if arr.ndim == 0 else arr.tolist()
+        return arr.item()
     return value
 
 
@@ -113,7 +115,12 @@ def _from_dict(
 
 
 def param_value(value: Any, name: str, where: str) -> Any:
-    arr = np.asarray(value)
+    try:
+        arr = np.asarray(value)
+    except ValueError:  # a ragged list
+        raise DataFileError(
+            f"{where}: parameter {name}={value!r} is not a number or a list of numbers"
+        ) from None
     if arr.dtype.kind not in "fi" or not np.all(np.isfinite(arr)):
         raise DataFileError(f"{where}: parameter {name}={value!r} is not a finite number")
     return float(arr) if arr.ndim == 0 else arr.astype(np.float64)

@@ -16,7 +16,8 @@ _BINARY = {"add": ("+", 3), "sub": ("-", 3), "mul": ("*", 4), "div": ("/", 4),
            "lt": ("<", 2), "le": ("<=", 2), "gt": (">", 2), "ge": (">=", 2)}  # fmt: skip
 _SUFFIX = {"glsl": "", "hlsl": "f", "wgsl": "f", "c": "f", "cuda": "f"}
 _CFN = {"sqrt": "sqrtf", "pow": "powf", "exp": "expf", "log": "logf", "tan": "tanf",
-        "cos": "cosf", "min": "fminf", "max": "fmaxf"}  # fmt: skip
+        "cos": "cosf", "min": "fminf", "max": "fmaxf", "abs": "fabsf", "atan": "atanf",
+        "acos": "acosf", "atan2": "atan2f"}  # fmt: skip
 
 
 class _Printer:
@@ -33,6 +34,8 @@ class _Printer:
             name = _CFN.get(name, name)
         elif name == "rsqrt":
             name = {"glsl": "inversesqrt", "wgsl": "inverseSqrt"}.get(self.lang, name)
+        elif name == "atan2" and self.lang == "glsl":
+            name = "atan"  # GLSL's two-argument atan is atan2
         return f"{name}({', '.join(args)})"
 
     def expr(self, e: Expr) -> tuple[str, int]:
@@ -40,7 +43,7 @@ class _Printer:
         if isinstance(e, Num):
             return self.num(e.value), 6
         if isinstance(e, Ref):
-            return ("d" if e.kind == "d" else self.names[e.name]), 6
+            return (e.name if e.kind == "d" else self.names[e.name]), 6
         assert isinstance(e, Call)
         if e.op in _BINARY:
             sym, prec = _BINARY[e.op]
@@ -115,10 +118,11 @@ def print_form(
     body.append(f"return {pr.expr(form.result)[0]};")
     args = [f"float {names[p]}" for p in form.params] if uniforms and lang in ("c", "cuda") else []
     if lang == "wgsl":
-        lines.append(f"fn {fname}(d: f32) -> f32 {{")
+        lines.append(f"fn {fname}({', '.join(f'{x}: f32' for x in form.inputs)}) -> f32 {{")
     else:
         prefix = "__device__ " if lang == "cuda" else ""
-        lines.append(f"{prefix}float {fname}({', '.join(['float d', *args])}) {{")
+        ins = [f"float {x}" for x in form.inputs]
+        lines.append(f"{prefix}float {fname}({', '.join([*ins, *args])}) {{")
     lines += ["    " + s for s in body]
     lines.append("}")
     return "\n".join(lines) + "\n"

@@ -1,7 +1,8 @@
 """Stage 2, the ground truth: Lambertian emitters, their exact irradiance, an independent
-quadrature, and datasets of receivers with their irradiance.
+quadrature, datasets of receivers with their irradiance, and the receiver geometry that
+the area-light models read.
 
-Imports nothing from the other stages.
+Imports the curves stage (the `AreaInputs` an area model reads) and nothing above it.
 """
 
 from ._dataset import FORMAT as FORMAT
@@ -15,4 +16,6 @@ from ._emitters import CapsuleEmitter as CapsuleEmitter
 from ._emitters import DiskEmitter as DiskEmitter
 from ._emitters import SphereEmitter as SphereEmitter
 from ._emitters import emitter_from_dict as emitter_from_dict
+from ._geometry import area_inputs as area_inputs
+from ._geometry import area_irradiance as area_irradiance
 from ._irradiance import irradiance as irradiance

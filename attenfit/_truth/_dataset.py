@@ -21,11 +21,13 @@ from typing import Any
 import jax
 import numpy as np
 
+from .. import _budget
 from .._atomic import atomic_write
 from .._budget import budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from .._input import load_json, read_npz
 from .._version import __version__
+from ._clearance import CLEARANCE, scene_scale, too_close
 from ._emitters import (
     AbstractEmitter,
     CapsuleEmitter,
@@ -119,6 +121,8 @@ class Dataset:
             stderr.setflags(write=False)
         if stderr.shape != (n,):
             raise BadValueError(f"stderr must have shape {(n,)} or be a scalar, got {stderr.shape}")
+        if np.any(E < 0):  # irradiance, and any estimate of it, is never negative
+            raise BadValueError(f"E must be >= 0 (an irradiance), got {E[E < 0].flat[0].item()!r}")
         if np.any(stderr < 0):
             raise BadValueError(f"stderr must be >= 0, got {stderr[stderr < 0].flat[0].item()!r}")
         if n and not np.all(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0):
@@ -254,6 +258,17 @@ def _count(name: str, n: Any) -> int:
     return int(n)
 
 
+#: Peak memory of a builder per receiver (points, normals, E, the irradiance's chunked
+#: intermediates), measured by `python -m benchmarks memory` (about 0.3 kB) and rounded up.
+BYTES_PER_RECEIVER = 1024
+
+
+def _receivers_within_budget(n: int) -> int:
+    """`n`, after refusing a receiver count whose arrays would exceed the memory budget."""
+    _budget.check(BYTES_PER_RECEIVER * n, f"{n:,} receivers", "fewer receivers (n)")
+    return n
+
+
 def _dtype(dtype: Any) -> np.dtype:
     try:
         dt = np.dtype(jax.dtypes.canonicalize_dtype(np.float64) if dtype is None else dtype)
@@ -362,7 +377,7 @@ def facing_sweep(
     radius for a sphere or capsule. `dtype` float32 or float64 (default: JAX's default float).
     """
     d_min, d_max = _positive("d_min", d_min), _positive("d_max", d_max)
-    n = _count("n", n)
+    n = _receivers_within_budget(_count("n", n))
     if d_max < d_min:
         raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
     solid = _solid_radius(emitter)
@@ -383,6 +398,13 @@ def facing_sweep(
     d = np.geomspace(d_min, d_max, n)
     points = c[None, :] + d[:, None] * direction[None, :]
     normals = np.broadcast_to(-direction, points.shape)
+    if too_close(emitter, points[:1])[0]:
+        need = solid + CLEARANCE * float(scene_scale(emitter, points[:1])[0])
+        raise BadValueError(
+            f"d_min ({d_min:g}) puts a receiver nearer the light's surface than float32 "
+            f"renderers can judge (2^-16 of the scene's scale, attenfit._truth._clearance); "
+            f"d_min must be at least {need * (1 + 2**-20):.6g}"
+        )
     prov = {
         "builder": "facing_sweep",
         "d_min": d_min,
@@ -409,7 +431,8 @@ def plane_receivers(
     plane, `height == r` touch it (as with virtual point lights on surfaces), `height <= 0`
     puts the centre on or under the plane. The grid spans `+-extent` around the foot of the
     centre with `n` (or `(ny, nx)`) points per side. Grid points on or inside the light are
-    left out; `provenance` records `shape` (ny, nx), `grid_index` (the flat grid index of
+    left out, and so are those nearer its surface than float32 renderers can judge (2^-16
+    of the scene's scale, `attenfit._truth._clearance`); `provenance` records `shape` (ny, nx), `grid_index` (the flat grid index of
     each receiver kept), the axes and the extent, so `Dataset.grid_image` can show it.
     """
     try:
@@ -421,6 +444,7 @@ def plane_receivers(
     extent = _positive("extent", extent)
     ny, nx = (n, n) if not isinstance(n, tuple | list) else tuple(n)
     ny, nx = _count("n", ny), _count("n", nx)
+    _receivers_within_budget(ny * nx)
     dt = _dtype(dtype)
     up_v = _unit_np(up, "up")
     # grid axes: world x (or y, for an up close to x) made perpendicular to up; +x, +y for up = +z
@@ -434,7 +458,7 @@ def plane_receivers(
     ys = np.linspace(-extent, extent, ny)
     X, Y = np.meshgrid(xs, ys)  # (ny, nx)
     pts = foot[None, :] + X.reshape(-1, 1) * ex[None, :] + Y.reshape(-1, 1) * ey[None, :]
-    keep = ~_inside(emitter, pts)
+    keep = ~_inside(emitter, pts) & ~too_close(emitter, pts)  # too close: _clearance.py
     index = np.nonzero(keep)[0]
     if index.size == 0:
         raise BadValueError(
@@ -490,10 +514,11 @@ def random_receivers(
     uniform point of the segment). Half the normals are uniform on the sphere; the other half
     have `n.l` uniform in the horizon-straddling band `|n.l| < sin(alpha)` (alpha the light's
     apparent angular radius `asin(r/d)`, or `atan(r/d)` for a disk), so horizon-clipped
-    receivers are well represented next to unclipped and fully-below ones. Deterministic in
-    `seed`. `d_min` must exceed the radius for a sphere or capsule.
+    receivers are well represented next to unclipped and fully-below ones. Points nearer the
+    light's surface than float32 renderers can judge (2^-16 of the scene's scale,
+    `attenfit._truth._clearance`) are drawn again. Deterministic in `seed`. `d_min` must exceed the radius for a sphere or capsule.
     """
-    n = _count("n", n)
+    n = _receivers_within_budget(_count("n", n))
     d_min, d_max = _positive("d_min", d_min), _positive("d_max", d_max)
     if d_max < d_min:
         raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
@@ -525,7 +550,7 @@ def random_receivers(
         else:
             base = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), (k, 3))
         p = base + d[:, None] * unit(k)
-        ok = ~_inside(emitter, p, margin=1e-6)
+        ok = ~_inside(emitter, p, margin=1e-6) & ~too_close(emitter, p)
         if isinstance(emitter, CapsuleEmitter):
             ok &= _segment_distance(emitter, p) >= d_min
         pts_list.append(p[ok])

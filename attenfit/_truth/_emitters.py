@@ -91,13 +91,20 @@ def _check_radius(name: str, x: Any) -> Any:
     return out
 
 
+def _normalise(v: Array) -> Array:
+    """`v / |v|` along the last axis, scaled to the order of 1 first: the squares of a normal
+    like [0, 0, 1e-200] underflow (and of [1e300, 0, 0] overflow) before the square root."""
+    m = jnp.max(jnp.abs(v), axis=-1, keepdims=True)
+    v = v / jnp.where(m > 0, m, 1)
+    return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
+
+
 def _unit(name: str, x: Any) -> Any:
     out = _check_real(name, x, (3,))
     if not _is_traced(x):
-        norm = float(np.linalg.norm(np.asarray(x, dtype=np.float64)))
-        if not norm > 0:
+        if not float(np.max(np.abs(np.asarray(x, dtype=np.float64)))) > 0:
             raise BadValueError(f"{name} must be a non-zero 3-vector, got {np.asarray(x).tolist()}")
-    return out / jnp.linalg.norm(out)
+    return _normalise(out)
 
 
 def _dot(a: Array, b: Array) -> Array:
@@ -148,8 +155,7 @@ def _receivers(points: ArrayLike, normals: ArrayLike) -> tuple[Array, Array]:
         ) from None
     p = jnp.broadcast_to(p, shape)
     n = jnp.broadcast_to(n, shape)
-    n = n / jnp.linalg.norm(n, axis=-1, keepdims=True)
-    return p, n
+    return p, _normalise(n)
 
 
 def _bcast(x: Array, like: Array) -> Array:

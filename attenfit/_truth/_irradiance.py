@@ -51,6 +51,7 @@ _PI = math.pi
 #: Gauss-Legendre nodes per panel of the capsule's outer integral (5 panels; see the benchmark).
 CAPSULE_NODES = 64
 _CAPSULE_CHUNK = 128
+_CHUNK = 1 << 16
 #: Gauss-Legendre nodes on the disk's visible arc when rho/a is small (see `_disk_one_sided`).
 _ARC_NODES = 32
 #: Below this rho/a the disk's arc integral is done by Gauss-Legendre (analytic form cancels).
@@ -469,6 +470,9 @@ def _evaluate(
     if isinstance(emitter, CapsuleEmitter):
         # chunks of receivers keep the (receivers x nodes) intermediates in cache
         E = jax.lax.map(lambda x: kern(*x), (pf, nf), batch_size=_CAPSULE_CHUNK)
+    elif pf.shape[0] > _CHUNK:
+        # past a chunk, memory stays flat: a few hundred bytes a receiver instead of ~1 kB
+        E = jax.lax.map(lambda x: kern(*x), (pf, nf), batch_size=_CHUNK)
     else:
         E = jax.vmap(kern)(pf, nf)
     return E.reshape(shape)

@@ -1,0 +1,385 @@
+"""Area-light models: irradiance approximations that read the receiver's geometry, not only `d`.
+
+A family predicts `E = I g f(d) max(0, n.l)`: its error on a tilted receiver, or where the
+light straddles the receiver's horizon, lies in the angular factor, which no `f(d)` reaches.
+An area model predicts `E / I` from the geometry the engines' area-light code reads
+(docs/area.md), the `AreaInputs`:
+
+* `d`: the distance from the receiver to the light's centre (capsule: to its segment);
+* `cos_r = n.l`: the cosine at the receiver, `l` the unit vector to the centre;
+* `cos_e = m.(p - c)/d`: the cosine at the emitter (a disk's normal `m`; 1 for a sphere);
+* `r`: the light's radius;
+* `cos_n = -n.m`: the receiver's normal against the disk's (1 when they face each other,
+  as a floor under a downlight); a sphere is read as the disk that faces the receiver,
+  `cos_n = cos_r`. Only the exact disk needs it: the vector irradiance of a disk is linear
+  in `n`, with a component along `m` that `cos_r` alone does not give;
+* `g`: the point-light model's emitter factor (1 for a sphere, `max(0, cos_e)` for a
+  one-sided disk, a capsule's projected-area factor); sphere-shaped models multiply by it,
+  so that a capsule is shaded as the sphere at its closest point, as the point light is.
+
+The distance families are the special case `PointLight(family)`: `g f(d) max(0, cos_r)`.
+Every model is a final `eqx.Module` whose fields are its parameters, registered by name,
+`jit`-, `vmap`- and `grad`-able, in the dtype of `d`.
+"""
+
+import abc
+import dataclasses
+import math
+from collections.abc import Mapping
+from typing import Any, ClassVar, NamedTuple
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, ArrayLike, Float
+
+from .._errors import BadTypeError, BadValueError, UnknownNameError
+from . import _parts as parts
+from ._family import CONSTRAINTS, Family, _check_param, _param_fields, _plain
+from ._softened import InverseSquare
+
+__all__ = [
+    "AREA_INPUTS",
+    "AreaInputs",
+    "AreaModel",
+    "PointLight",
+    "cone_cosine",
+    "get_area_model",
+    "list_area_models",
+    "register_area_model",
+]
+
+#: The inputs of every area model, in the order `AreaInputs` holds them.
+AREA_INPUTS = ("d", "cos_r", "cos_e", "r", "cos_n", "g")
+
+Real = Float[Array, "*shape"]
+
+
+class AreaInputs(NamedTuple):
+    """The receiver geometry an area model reads (see the module docstring), arrays of one shape."""
+
+    d: Float[ArrayLike, "*shape"]
+    cos_r: Float[ArrayLike, "*shape"]
+    cos_e: Float[ArrayLike, "*shape"]
+    r: Float[ArrayLike, "*shape"]
+    cos_n: Float[ArrayLike, "*shape"]
+    g: Float[ArrayLike, "*shape"]
+
+    def stack(self) -> Float[Array, " 6 *shape"]:
+        """The six inputs as one array, inputs first (what the fit stage passes as `d`)."""
+        return jnp.stack(jnp.broadcast_arrays(*(jnp.asarray(x) for x in self)))
+
+    def take(self, index: Any) -> "AreaInputs":
+        """The inputs of the receivers `index` selects."""
+        return AreaInputs(*(jnp.asarray(x)[index] for x in self))
+
+
+# ----------------------------------------------------------------------------- horizon parts
+_SERIES_AT = 0.3
+#: atan(x) - x = -x^3 (1/3 - x^2/5 + x^4/7 - ...): 16 terms are exact to rounding below 0.3
+_ATAN_TAIL = tuple((-1.0) ** (k + 1) / (2 * k + 3) for k in range(16))
+
+
+def _atan_minus_identity(x: Real) -> Real:
+    """atan(x) - x for x >= 0, by its series below 0.3 (where the difference cancels)."""
+    near = x < _SERIES_AT
+    xs = jnp.where(near, x, jnp.zeros_like(x))
+    x2 = xs * xs
+    acc = jnp.zeros_like(x) + _ATAN_TAIL[-1]
+    for coefficient in reversed(_ATAN_TAIL[:-1]):
+        acc = coefficient + x2 * acc
+    far = jnp.where(near, jnp.ones_like(x), x)
+    return jnp.where(near, xs * x2 * acc, jnp.arctan(far) - far)
+
+
+def safe_sqrt(x: Real) -> Real:
+    """sqrt(max(x, 0)) with a gradient of 0 (not inf or NaN) at and below 0."""
+    pos = x > 0
+    return jnp.where(pos, jnp.sqrt(jnp.where(pos, x, jnp.ones_like(x))), jnp.zeros_like(x))
+
+
+def cone_cosine(cos_t: Real, sin2: Real) -> Real:
+    """The irradiance of a uniform cone over its unclipped facing value: `K / (pi sin^2 a)`.
+
+    A uniform-radiance cone of half-angle `a` (`sin2 = sin^2 a`, in (0, 1]) seen at angle `t`
+    from the receiver's normal gives `E = L K(cos t, sin a)` (Snyder 1996; Frostbite 2014
+    section 4.7.2.4 `illuminanceSphereOrDisk`; Howell B-43), `K = pi sin^2 a cos t` while the
+    cone is above the horizon, 0 once below it, and in between (docs/ground-truth.md §2)
+    `K = sin^2 a cos t atan2(g, -cos a cos t) - g cos a + atan2(g, cos a)`,
+    `g = sqrt(sin^2 a - cos^2 t)`. The result is `cos t` while unclipped: the factor a
+    sphere's or a facing disk's irradiance carries in place of `max(0, n.l)`.
+
+    Stable form: for `x = g / cos a < 0.3` the last two terms are `(atan x - x) + x sin^2 a`
+    and, for `cos t < 0`, the first two `-sin^2 a |cos t| (atan u - u)`, `u = g/(cos a |cos t|)`,
+    each by its series. Finite gradients everywhere (double `where`).
+    """
+    s2 = jnp.clip(sin2, 0, 1)
+    s = safe_sqrt(s2)
+    up = cos_t >= s
+    down = cos_t <= -s
+    clipped = ~(up | down)
+    c = jnp.where(clipped, cos_t, jnp.zeros_like(cos_t))
+    s2c = jnp.where(clipped, s2, jnp.full_like(s2, 0.5))
+    sc = jnp.sqrt(s2c)
+    ca = safe_sqrt(1 - s2c)
+    g = safe_sqrt((sc - c) * (sc + c))
+    phi = jnp.arctan2(g, -ca * c)
+    contact = ca <= 0
+    x = g / jnp.where(contact, jnp.ones_like(ca), ca)
+    x_small = (x < _SERIES_AT) & ~contact
+    # atan2(g, cos a) - g cos a, written without its cancellation where x is small
+    tail = jnp.where(
+        x_small,
+        _atan_minus_identity(jnp.where(x_small, x, jnp.zeros_like(x))) + x * s2c,
+        jnp.arctan2(g, ca) - g * ca,
+    )
+    k = s2c * c * phi + tail
+    neg = c < 0
+    u = g / jnp.where(neg & ~contact, ca * -c, jnp.ones_like(c))
+    u_small = x_small & neg & (u < _SERIES_AT)
+    uu = jnp.where(u_small, u, jnp.zeros_like(u))
+    k_neg = _atan_minus_identity(jnp.where(x_small, x, jnp.zeros_like(x))) + s2c * c * (
+        _atan_minus_identity(uu)
+    )
+    k = jnp.maximum(jnp.where(u_small, k_neg, k), 0)
+    clip_value = k / (math.pi * s2c)
+    return jnp.where(up, cos_t, jnp.where(down, jnp.zeros_like(cos_t), clip_value))
+
+
+def contact_distance(d: Real, r: Real) -> Real:
+    """`max(d, r)`: a receiver inside a sphere's radius is read as touching it (as Frostbite's
+    `sinSigmaSqr <= 0.9999` clamp does)."""
+    return jnp.where(d > r, d, r)
+
+
+# ----------------------------------------------------------------------------- the base
+class AreaModel(eqx.Module):
+    """An area-light irradiance model: `E / I` from the receiver geometry (`AreaInputs`).
+
+    Subclasses are final: parameters as fields with defaults, the class variables below, and
+    `irradiance`. Calling a model, `model(d, cos_r, cos_e, r, cos_n=None, g=None)`, fills the
+    defaults (`cos_n`: the receiver's normal turned toward the light's axis in the plane of
+    `l` and the axis, `cos(theta_r - theta_e)`; `g`: `max(0, cos_e)`), broadcasts, and
+    returns `E / I` in 1/length^2 in the dtype of `d`.
+    """
+
+    #: Registry name, e.g. ``"snyder_sphere"``.
+    name: eqx.AbstractClassVar[str]
+    #: The formula as text.
+    formula: eqx.AbstractClassVar[str]
+    #: Citation: the engine's file and function, or the paper.
+    source: eqx.AbstractClassVar[str]
+    #: Parameters a fit frees by default.
+    default_free: eqx.AbstractClassVar[tuple[str, ...]]
+    #: The lights it is written for: "sphere" (spheres, and capsules at their closest point
+    #: times `g`), "disk", or "any".
+    light: ClassVar[str] = "sphere"
+    #: Where it is exact, in words ("" where nowhere).
+    exact: ClassVar[str] = ""
+    #: Parameter -> constraint kind (`attenfit.Family.constraints`); default "positive".
+    constraints: ClassVar[Mapping[str, str]] = {}
+
+    def __check_init__(self):
+        for name, value in zip(self.param_names(), self.param_leaves(), strict=True):
+            _check_param(self.name, name, value, self.constraint(name))
+
+    @abc.abstractmethod
+    def irradiance(self, d: Real, cos_r: Real, cos_e: Real, r: Real, cos_n: Real, g: Real) -> Real:
+        """`E / I` from inputs of one dtype and shape (called by `__call__`)."""
+
+    def __call__(
+        self,
+        d: Float[ArrayLike, "*shape"],
+        cos_r: Float[ArrayLike, "*shape"],
+        cos_e: Float[ArrayLike, "*shape"],
+        r: Float[ArrayLike, "*shape"],
+        cos_n: Float[ArrayLike, "*shape"] | None = None,
+        g: Float[ArrayLike, "*shape"] | None = None,
+    ) -> Float[Array, "*shape"]:
+        """`E / I` at receivers with this geometry (1/length^2)."""
+        d, cos_r, cos_e, r = parts.promote(d, cos_r, cos_e, r)
+        if cos_n is None:
+            sin_r = safe_sqrt((1 - cos_r) * (1 + cos_r))
+            sin_e = safe_sqrt((1 - cos_e) * (1 + cos_e))
+            cos_n = cos_r * cos_e + sin_r * sin_e
+        if g is None:
+            g = jnp.maximum(cos_e, 0)
+        return _evaluate(self, d, cos_r, cos_e, r, jnp.asarray(cos_n), jnp.asarray(g))
+
+    def evaluate(self, x: Float[ArrayLike, " 6 *shape"]) -> Float[Array, "*shape"]:
+        """`E / I` from the stacked inputs (`AreaInputs.stack()`), rows in `AREA_INPUTS` order."""
+        x = jnp.asarray(x)
+        return self(x[0], x[1], x[2], x[3], x[4], x[5])
+
+    # ------------------------------------------------------------------ parameters
+    @classmethod
+    def param_names_of(cls) -> tuple[str, ...]:
+        """The parameter names of the class (its non-static fields)."""
+        return tuple(f.name for f in _param_fields(cls))
+
+    def param_names(self) -> tuple[str, ...]:
+        """The parameter names, in field order."""
+        return type(self).param_names_of()
+
+    def params(self) -> dict[str, Any]:
+        """The parameter values, by name."""
+        return {n: getattr(self, n) for n in self.param_names()}
+
+    def param_leaves(self) -> list[Any]:
+        """The parameter values as the model's own leaves (what `eqx.tree_at` replaces)."""
+        return [getattr(self, n) for n in self.param_names()]
+
+    def constraint(self, param: str) -> str:
+        """The constraint of `param` ("positive" unless `constraints` says otherwise)."""
+        if param not in self.param_names():
+            raise UnknownNameError(
+                f"area model {self.name!r} has no parameter {param!r}; it has {list(self.param_names())}"
+            )
+        return type(self).constraints.get(param, "positive")
+
+    def length_params(self) -> tuple[str, ...]:
+        """Parameters with units of length (the fit's scale candidates move them together)."""
+        return ()
+
+    def free_by_default(self) -> tuple[str, ...]:
+        """The parameters a fit frees when the caller does not say (`default_free`)."""
+        return tuple(type(self).default_free)
+
+    def replace(self, **values: Any) -> "AreaModel":
+        """A copy with some parameters replaced."""
+        names = self.param_names()
+        for key in values:
+            if key not in names:
+                raise UnknownNameError(
+                    f"area model {self.name!r} has no parameter {key!r}; it has {list(names)}"
+                )
+        return dataclasses.replace(self, **values)
+
+    def describe(self) -> dict[str, Any]:
+        """Name, formula, source, light, where exact, parameters with defaults and constraints."""
+        return {
+            "name": self.name,
+            "formula": self.formula,
+            "source": self.source,
+            "light": self.light,
+            "exact": self.exact,
+            "params": {
+                p: {"default": _plain(v), "constraint": self.constraint(p)}
+                for p, v in self.params().items()
+            },
+            "default_free": list(self.free_by_default()),
+        }
+
+
+def _call(model: AreaModel, d, cos_r, cos_e, r, cos_n, g):
+    d, cos_r, cos_e, r, cos_n, g = parts.promote(d, cos_r, cos_e, r, cos_n, g)
+    d, cos_r, cos_e, r, cos_n, g = jnp.broadcast_arrays(d, cos_r, cos_e, r, cos_n, g)
+    out = model.irradiance(parts.distance(d), jnp.clip(cos_r, -1, 1), jnp.clip(cos_e, -1, 1), r,
+                           jnp.clip(cos_n, -1, 1), g)  # fmt: skip
+    return parts.keep_nan(d, out.astype(d.dtype))
+
+
+_jitted = eqx.filter_jit(_call)
+
+
+def _evaluate(model: AreaModel, *inputs: Array) -> Array:
+    """The model at the inputs, compiled once per model structure, shapes and dtype."""
+    return _jitted(jax.tree_util.tree_map(jnp.asarray, model), *inputs)
+
+
+# ----------------------------------------------------------------------------- registry
+_REGISTRY: dict[str, type[AreaModel]] = {}
+
+
+def register_area_model(cls: type[AreaModel]) -> type[AreaModel]:
+    """Add an `AreaModel` subclass to the registry under its `name` (a decorator)."""
+    if not (isinstance(cls, type) and issubclass(cls, AreaModel)):
+        raise BadTypeError(f"register_area_model takes a subclass of AreaModel, got {cls!r}")
+    name = getattr(cls, "name", None)
+    if not isinstance(name, str) or not name.isidentifier():
+        raise BadValueError(f"area model {cls.__name__} needs a `name` that is an identifier")
+    if name in _REGISTRY and _REGISTRY[name] is not cls:
+        raise BadValueError(f"an area model named {name!r} is registered already")
+    for kind in cls.constraints.values():
+        if kind not in CONSTRAINTS:
+            raise BadValueError(
+                f"area model {name!r}: constraint {kind!r} is not one of {CONSTRAINTS}"
+            )
+    if cls.light not in ("sphere", "disk", "any"):
+        raise BadValueError(f"area model {name!r}: light must be sphere, disk or any")
+    cls()  # constructs with no arguments
+    _REGISTRY[name] = cls
+    return cls
+
+
+def list_area_models() -> list[str]:
+    """The registered area models, in registration order."""
+    return list(_REGISTRY)
+
+
+def get_area_model(name: str) -> type[AreaModel]:
+    """The area model class registered as `name`."""
+    if not isinstance(name, str):
+        raise BadTypeError(f"area model name must be a string, got {name!r}")
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise UnknownNameError(
+            f"unknown area model {name!r}; known: {', '.join(_REGISTRY)}"
+        ) from None
+
+
+# ----------------------------------------------------------------------------- point light
+@register_area_model
+class PointLight(AreaModel):
+    """The point-light model as an area model: `E / I = g f(d) max(0, cos_r)`.
+
+    Every distance family is this special case: its angular part is `max(0, n.l)` times the
+    emitter factor `g`, whatever `f`. Its parameters are the family's (`family`, default
+    `InverseSquare()`, the exact facing curve of a sphere); it is exact wherever the light
+    is wholly above the horizon and `f` is the light's exact facing attenuation at that
+    receiver's orientation (a sphere: any such receiver; a disk: coaxial facing ones).
+    """
+
+    family: Family
+
+    name = "point_light"
+    formula = "g f(d) max(0, cos_r)"
+    source = "the point-light model (docs/architecture.md, Conventions; RTR4 eq. 5.11-5.14)"
+    default_free = ()
+    light = "any"
+    exact = "a sphere wholly above the horizon, with f = 1/d^2"
+
+    def irradiance(self, d, cos_r, cos_e, r, cos_n, g):
+        return g * self.family(d).astype(d.dtype) * jnp.maximum(cos_r, 0)
+
+    def __init__(self, family: Family | None = None):
+        if family is None:
+            family = InverseSquare()
+        if not isinstance(family, Family):
+            raise BadTypeError(f"PointLight takes a Family instance, got {type(family).__name__}")
+        self.family = family
+
+    def param_names(self) -> tuple[str, ...]:
+        return self.family.param_names()
+
+    def param_leaves(self) -> list[Any]:
+        return [getattr(self.family, n) for n in self.param_names()]
+
+    def constraint(self, param: str) -> str:
+        return self.family.constraint(param)
+
+    def length_params(self) -> tuple[str, ...]:
+        return tuple(self.family.length_params)
+
+    def params(self) -> dict[str, Any]:
+        return self.family.params()
+
+    def replace(self, **values: Any) -> "PointLight":
+        return PointLight(self.family.replace(**values))
+
+    def free_by_default(self) -> tuple[str, ...]:
+        return tuple(self.family.default_free)
+
+    def describe(self) -> dict[str, Any]:
+        return {**super().describe(), "family": self.family.name}

@@ -1,0 +1,114 @@
+"""`answer_file`: a USD or glTF scene from file to per-light choices (read, sample, truth,
+fit and judge every family the engine allows, choose per light, trade ranges)."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from .. import _progress
+from ._choices import LightChoice, choices_markdown, light_choices, plot_choices
+from ._files import ImportedScene, load_mesh_scene
+from ._fits import light_data
+from ._recommend import recommend
+from ._recommendation import Recommendation
+
+__all__ = ["FileAnswer", "answer_file"]
+
+
+@dataclasses.dataclass(frozen=True)
+class FileAnswer:
+    """A scene file's answer: the imported scene, the recommendation over all its lights
+    (`recommendation.winner`: one family for every light), and the per-light `choices`."""
+
+    imported: ImportedScene
+    recommendation: Recommendation
+    choices: tuple[LightChoice, ...]
+
+    def summary(self) -> str:
+        """One line: each light's family (and range)."""
+        parts = []
+        for c in self.choices:
+            rng = ""
+            if c.range is not None and c.range.get("range"):
+                rng = f", range {c.range['range']:.3g} m"
+            mark = "" if c.status == "pass" else " (closest, over tolerance)"
+            parts.append(f"{c.name}: {c.family}{mark}{rng}")
+        return "; ".join(parts)
+
+    def to_markdown(self) -> str:
+        return (
+            choices_markdown(self.imported, self.choices) + "\n" + self.recommendation.to_markdown()
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        rec = self.recommendation.to_dict()
+        im = self.imported
+        rec["scene"] = {  # the sampled receivers are not repeated (thousands per light)
+            "file": im.path.name,
+            "format": im.format,
+            "lights": [
+                {"name": n, "file_kind": k, **light.to_dict()}
+                for n, k, light in zip(im.names, im.file_kinds, im.scene.lights, strict=True)
+            ],
+            "samples_per_light": im.samples,
+            "tolerance": im.scene.tolerance,
+            "precision": im.scene.precision,
+            "threshold": im.threshold,
+            "engine": None if im.engine is None else im.engine.name,
+            "notices": list(im.notices),
+        }
+        return {
+            "format": "attenfit.scene-file-answer",
+            "version": 1,
+            "lights": [c.to_dict() for c in self.choices],
+            "recommendation": rec,
+        }
+
+    def save(self, out: str | os.PathLike, *, force: bool = False) -> Path:
+        """Write answer.md and answer.json (per light, then all lights together) and
+        lights.png (each light's checked error against distance) into folder `out`, and the all-lights recommendation's files (`Recommendation.save`: shaders,
+        errors.png) into `out/all-lights`; atomic, an existing non-empty folder is replaced
+        only with `force`."""
+        from .._atomic import atomic_dir
+
+        rec = self.recommendation
+        light = dataclasses.replace(rec, scene=dataclasses.replace(rec.scene, receivers=()))
+        out = Path(out)
+        with atomic_dir(out, force=force) as tmp:
+            (tmp / "answer.md").write_text(self.to_markdown(), encoding="utf-8")
+            (tmp / "answer.json").write_text(
+                json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
+            )
+            light.save(tmp / "all-lights")
+            import matplotlib.pyplot as plt
+
+            fig, _ = plot_choices(self.imported, self.choices)
+            fig.savefig(tmp / "lights.png", dpi=110)
+            plt.close(fig)
+        return out
+
+    def write_back(self, out: str | os.PathLike, *, force: bool = False) -> Path:
+        """A copy of the scene file with the answers written in (`attenfit._scenes._writeback`)."""
+        from ._writeback import write_back
+
+        return write_back(self.imported, self.choices, out, force=force)
+
+
+def answer_file(path: str | os.PathLike, *, measure: bool = False, **options: Any) -> FileAnswer:
+    """Read the USD or glTF scene `path` and answer it per light.
+
+    `options` are those of `load_mesh_scene` (side, tolerance, precision, threshold,
+    samples, radius, engine, strict, seed, notice). Needs `jax_enable_x64` (the CLI sets it).
+    """
+    imported = load_mesh_scene(path, **options)
+    scene = imported.scene
+    _progress.stage(f"ground truth: {len(scene.lights)} lights, {imported.samples} receivers each")
+    truths = scene.ground_truth()
+    rec = recommend(scene, measure=measure, truths=truths)
+    datas = [light_data(scene, t) for t in truths]
+    _progress.stage("per-light choices" + (" and ranges" if imported.threshold else ""))
+    return FileAnswer(imported, rec, light_choices(imported, rec, datas))

@@ -1,0 +1,395 @@
+"""Per-light answers for a scene read from a file: the cheapest family within tolerance at
+each light, its parameters, its range, the engine's own light properties, and the check of
+the answer against the exact irradiance at the light's receivers.
+
+The range trade
+---------------
+A windowed curve (one with a range: `r_max`, `cutoff`, `range`) is culled beyond its range,
+and a light's culling and shading cost grows with its influence volume (`4/3 pi R^3` for a
+point light, `2/3 pi (1 - cos umbra) R^3` for a spot's cone). Given a visibility threshold
+`T` (an absolute irradiance), the smallest range is wanted that keeps the judged error within
+the tolerance at every receiver whose true irradiance exceeds `T` (below `T` the light is
+not visible, culled or not). For each candidate range the family's free parameters are
+refitted to those receivers with the range pinned, and the smallest range that passes is
+found on a geometric grid from the farthest visible receiver `d_vis` to `16 d_vis` (24
+points), then on a finer grid (12 points) inside the bracketing step: the range is found to
+within 1.3%. The influence volume saved is against the light's published range (glTF
+`range`) or the engine's default range.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from .._curves import Family, get_family
+from .._errors import AttenfitError
+from ._engine import Engine
+from ._files import ImportedScene
+from ._fits import LightData, _range_param, fit_group, fit_plan, judged_errors, shade
+from ._recommendation import Candidate, Recommendation, pct
+
+__all__ = ["LightChoice", "light_choices", "range_trade"]
+
+_GRID, _FINE, _SPAN = 24, 12, 16.0  # multiples of the solve's batch (4 lights)
+
+
+@dataclasses.dataclass(frozen=True)
+class LightChoice:
+    """The answer for one light (see the module docstring); `checked_error` is the largest
+    error of the final curve (its parameters and range) against the exact irradiance at the
+    light's judged receivers (those above the threshold when there is one)."""
+
+    light: int
+    name: str
+    file_kind: str
+    receivers: int
+    family: str | None
+    status: str  # "pass" | "fail" (the closest family, when none is within tolerance)
+    params: Mapping[str, Any]
+    error: float | None
+    shader_cost: float | None
+    spot: Mapping[str, Any] | None
+    range: Mapping[str, Any] | None
+    properties: Mapping[str, Any]
+    checked_error: float | None
+    model: Family | None = dataclasses.field(default=None, repr=False, compare=False)
+    #: the checked receivers' distances (m) and errors, for the figure
+    checked: tuple[np.ndarray, np.ndarray] | None = dataclasses.field(
+        default=None, repr=False, compare=False
+    )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "light": self.light,
+            "name": self.name,
+            "file_kind": self.file_kind,
+            "receivers": self.receivers,
+            "family": self.family,
+            "status": self.status,
+            "params": dict(self.params),
+            "error": self.error,
+            "shader_cost": self.shader_cost,
+            "spot": None if self.spot is None else dict(self.spot),
+            "range": None if self.range is None else dict(self.range),
+            "properties": dict(self.properties),
+            "checked_error": self.checked_error,
+        }
+
+
+def _passes_at(c: Candidate, i: int, tol: float) -> bool:
+    """Within tolerance at light `i`, and not failed for a reason other than another light's
+    error (a precision failure, a non-finite value, a broken constraint)."""
+    if c.status == "excluded" or len(c.error_by_light) <= i:
+        return False
+    if c.status == "fail" and not c.reason.startswith("error "):
+        return False
+    e = c.error_by_light[i]
+    return math.isfinite(e) and e <= tol
+
+
+def _volume(light, R: float) -> float:
+    if light.is_spot:
+        return 2 / 3 * math.pi * (1 - math.cos(math.radians(light.umbra))) * R**3
+    if light.kind == "disk":
+        return 2 / 3 * math.pi * R**3
+    return 4 / 3 * math.pi * R**3
+
+
+def _g(spot_model, x: LightData, precision: str) -> np.ndarray:
+    return np.ones_like(x.d) if spot_model is None else shade(spot_model, x.cos_s, precision)
+
+
+def _subset(x: LightData, keep: np.ndarray, R: float | None) -> LightData:
+    return dataclasses.replace(
+        x,
+        d=x.d[keep],
+        wpt=x.wpt[keep],
+        E_true=x.E_true[keep],
+        E_irr=x.E_irr[keep],
+        cos_s=x.cos_s[keep],
+        theta=x.theta[keep],
+        denom=x.denom[keep],
+        range=R,
+    )
+
+
+def _fit_at(cls, x: LightData, vis, ranges: Sequence[float], pins, precision, g, chunk: int):
+    """The family refitted to the receivers `vis` of `x` with its range pinned at each of
+    `ranges`: (models, errors over `vis`). The other receivers weigh 0 (an infinite
+    denominator), so the solve has the shape of the recommendation's (`chunk` lights of the
+    same receiver count) and reuses its compiled form."""
+    hidden = dataclasses.replace(x, denom=np.where(vis, x.denom, np.inf))
+    datas = [dataclasses.replace(hidden, range=float(R)) for R in ranges]
+    d_vis = x.d[vis]
+    knots = tuple(float(k) for k in np.geomspace(d_vis.min(), d_vis.max() * 1.001, 6))
+    plans = [fit_plan(cls, d, float(x.d.max()), knots) for d in datas]
+    if pins:
+        plans = [({**v, **pins}, tuple(p for p in f if p not in pins)) for v, f in plans]
+    models = []
+    for k in range(0, len(datas), chunk):
+        models += [m for m, _, _ in fit_group(cls, datas[k : k + chunk], plans[k : k + chunk])]
+    errs = []
+    for m in models:
+        try:
+            f = shade(m, x.d[vis], precision)
+            errs.append(float(judged_errors(_subset(x, vis, None), f, g).max()))
+        except AttenfitError:
+            errs.append(math.inf)
+    return models, errs
+
+
+def range_trade(
+    family: str,
+    x: LightData,
+    light,
+    *,
+    threshold: float,
+    tolerance: float,
+    precision: str,
+    spot_model=None,
+    pins: Mapping[str, float] | None = None,
+    reference: float | None = None,
+    chunk: int = 4,
+) -> tuple[dict[str, Any], Family | None]:
+    """The smallest range of `family` for one light (module docstring): a summary dict and
+    the refitted model at that range (None when no range within `16 d_vis` passes)."""
+    cls = get_family(family)
+    vis = x.E_true > threshold
+    out: dict[str, Any] = {"threshold": threshold, "visible_receivers": int(vis.sum())}
+    if not vis.any():
+        out.update(range=0.0, note="below the threshold at every receiver: cull the light")
+        return out, None
+    sub = _subset(x, vis, None)
+    g = _g(spot_model, sub, precision)
+    d_vis = float(sub.d.max())
+    out["d_visible"] = d_vis
+    grid = d_vis * np.geomspace(1.0 + 1e-6, _SPAN, _GRID)
+    models, errs = _fit_at(cls, x, vis, grid, pins, precision, g, chunk)
+    ok = [k for k, e in enumerate(errs) if e <= tolerance]
+    if not ok:
+        out.update(
+            range=None,
+            note=f"no range up to {_SPAN:g} x d_visible keeps the error within "
+            f"{pct(tolerance)} (best {pct(min(errs))})",
+        )
+        return out, None
+    k = ok[0]
+    best_R, best_m, best_e = float(grid[k]), models[k], errs[k]
+    if k > 0:
+        fine = np.geomspace(grid[k - 1], grid[k], _FINE + 2)[1:-1]
+        fm, fe = _fit_at(cls, x, vis, fine, pins, precision, g, chunk)
+        for R, m, e in zip(fine, fm, fe, strict=True):
+            if e <= tolerance:
+                best_R, best_m, best_e = float(R), m, e
+                break
+    out.update(range=best_R, error=best_e, volume=_volume(light, best_R))
+    if reference is not None:
+        out["reference_range"] = reference
+        out["reference_volume"] = _volume(light, reference)
+        out["volume_saved"] = 1.0 - (best_R / reference) ** 3
+        if reference < d_vis:
+            out["note"] = (
+                f"the reference range {reference:g} m culls visible light (above the "
+                f"threshold out to {d_vis:.3g} m)"
+            )
+    else:
+        out["reference_range"] = math.inf
+        out["volume_saved"] = 1.0
+        out["note"] = "no published or default range (infinite): any range saves it all"
+    return out, best_m
+
+
+def _plain(model: Family) -> dict[str, Any]:
+    out = {}
+    for k, v in model.params().items():
+        a = np.asarray(v, dtype=np.float64)
+        out[k] = float(a) if a.ndim == 0 else a.tolist()
+    return out
+
+
+def light_choices(
+    imported: ImportedScene,
+    rec: Recommendation,
+    datas: Sequence[LightData],
+) -> tuple[LightChoice, ...]:
+    """The answer for every light of `imported` from its recommendation `rec` (and the
+    lights' judged receivers `datas`), with the range trade when there is a threshold."""
+    scene = imported.scene
+    engine: Engine | None = imported.engine
+    out = []
+    for i, light in enumerate(scene.lights):
+        x = datas[i]
+        passing = [c for c in rec.candidates if _passes_at(c, i, scene.tolerance) and c.models]
+        windowed = [c for c in passing if _range_param(get_family(c.family)) is not None]
+        if imported.threshold is not None and windowed:
+            pick, status = min(windowed, key=lambda c: (c.shader_cost, c.error_by_light[i])), "pass"
+        elif passing:
+            pick, status = min(passing, key=lambda c: (c.shader_cost, c.error_by_light[i])), "pass"
+        else:
+            judged = [c for c in rec.candidates if c.models and math.isfinite(c.error_by_light[i])]
+            if not judged:
+                out.append(
+                    LightChoice(
+                        i, imported.names[i], imported.file_kinds[i], len(x.d), None, "fail",
+                        {}, None, None, None, None, {}, None,
+                    )
+                )  # fmt: skip
+                continue
+            pick, status = min(judged, key=lambda c: c.error_by_light[i]), "fail"
+        model = pick.models[i]
+        spot_model = pick.spot_models[i] if pick.spot_models else None
+        spot = None
+        if spot_model is not None:
+            spot = {
+                "falloff": pick.directional,
+                "umbra": math.degrees(float(spot_model.umbra)),
+                "penumbra": math.degrees(float(spot_model.penumbra)),
+            }
+        trade = None
+        final = model
+        if imported.threshold is not None and status == "pass" and pick in windowed:
+            ref = imported.published_ranges[i]
+            if ref is None and engine is not None:
+                ref = engine.default_range
+            pins = engine.fixed.get(pick.family) if engine is not None else None
+            trade, refit = range_trade(
+                pick.family, x, light,
+                threshold=imported.threshold, tolerance=scene.tolerance,
+                precision=scene.precision, spot_model=spot_model, pins=pins, reference=ref,
+                chunk=max(2, 1 << max(0, (len(scene.lights) - 1).bit_length())),
+            )  # fmt: skip
+            if refit is not None:
+                final = refit
+        # the check: the final curve against the exact irradiance at the judged receivers
+        keep = np.ones(len(x.d), bool)
+        if trade is not None and trade.get("range"):
+            keep = x.E_true > imported.threshold
+        sub = _subset(x, keep, None)
+        f = shade(final, sub.d, scene.precision)
+        errs = judged_errors(sub, f, _g(spot_model, sub, scene.precision))
+        checked = float(errs.max())
+        params = _plain(final)
+        props: dict[str, Any] = {}
+        if engine is not None and pick.family in engine.families:
+            props = engine.properties(pick.family, params, light, spot)
+        out.append(
+            LightChoice(
+                light=i,
+                name=imported.names[i],
+                file_kind=imported.file_kinds[i],
+                receivers=len(x.d),
+                family=pick.family,
+                status=status,
+                params=params,
+                error=float(pick.error_by_light[i]),
+                shader_cost=pick.shader_cost,
+                spot=spot,
+                range=trade,
+                properties=props,
+                checked_error=checked,
+                model=final,
+                checked=(sub.d, errs),
+            )
+        )
+    return tuple(out)
+
+
+def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) -> str:
+    """A Markdown section: one row per light, then each light's engine properties."""
+    eng = imported.engine
+    lines = [
+        f"## Per-light choices{f' for {eng.name}' if eng else ''}",
+        "",
+        f"Tolerance {pct(imported.scene.tolerance)}, {imported.scene.precision}"
+        + (f", visibility threshold {imported.threshold:g}" if imported.threshold else "")
+        + f"; {imported.samples} receivers sampled per light. *Error, far range*: the "
+        "family's fit with its range 10x the farthest receiver; *checked error*: the final "
+        "curve (its parameters and range) against the exact irradiance at the light's "
+        "receivers (those above the threshold, with one).",
+        "",
+        "| light | kind | receivers | family | params | error, far range | checked error | range | volume saved |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for c in choices:
+        params = ", ".join(f"{k} = {_num(v)}" for k, v in c.params.items()) or "-"
+        if c.spot:
+            params += f"; {c.spot['falloff']}: umbra {c.spot['umbra']:.4g}, penumbra {c.spot['penumbra']:.4g} deg"
+        rng, saved = "-", "-"
+        if c.range is not None:
+            R = c.range.get("range")
+            rng = "none found" if R is None else f"{R:.4g} m"
+            if "volume_saved" in c.range and R is not None:
+                ref, v = c.range["reference_range"], c.range["volume_saved"]
+                if not math.isfinite(ref):
+                    saved = "all (no range: infinite)"
+                elif v >= 0:
+                    saved = f"{pct(v)} of {ref:g} m's"
+                else:
+                    saved = f"none: {1 - v:.3g} x the volume of {ref:g} m"
+        fam = c.family if c.status == "pass" else f"{c.family} (closest; not within tolerance)"
+        lines.append(
+            f"| {c.name} | {c.file_kind} | {c.receivers} | {fam} | {params} | {pct(c.error)} "
+            f"| {pct(c.checked_error)} | {rng} | {saved} |"
+        )
+    notes = [(c.name, c.range["note"]) for c in choices if c.range and c.range.get("note")]
+    if notes:
+        lines += ["", *(f"- {n}: {t}" for n, t in notes)]
+    if eng is not None:
+        lines += ["", f"### {eng.name} light properties", "", f"Source: {eng.source}.", ""]
+        if eng.note:
+            lines += [f"Note: {eng.note}.", ""]
+        for c in choices:
+            props = ", ".join(f"{k} = {_num(v)}" for k, v in c.properties.items()) or "-"
+            lines.append(f"- {c.name}: {props}")
+    if imported.notices:
+        lines += ["", "Skipped:", "", *(f"- {n}" for n in imported.notices)]
+    lines.append("")
+    return "\n".join(lines)
+
+
+def _num(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, float):
+        return f"{v:.6g}"
+    if isinstance(v, list):
+        return "[" + ", ".join(f"{x:.4g}" for x in v) + "]"
+    return str(v)
+
+
+def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
+    """Each light's checked error against distance (its final curve at its receivers), the
+    tolerance dashed and each chosen range dotted; `(fig, ax)`, never shown."""
+    import matplotlib
+    import matplotlib.pyplot as plt
+
+    with matplotlib.rc_context({"font.size": 9, "axes.grid": True, "grid.alpha": 0.3}):
+        fig, ax = plt.subplots(figsize=(7, 4.2))
+        tol = imported.scene.tolerance
+        floor = tol * 1e-4
+        for k, c in enumerate(choices):
+            if c.checked is None:
+                continue
+            d, e = c.checked
+            o = np.argsort(d)
+            line = ax.plot(
+                d[o], np.maximum(e[o], floor), "os^vDP"[k % 6], ms=2.5, alpha=0.6,
+                label=f"{c.name}: {c.family} (max {pct(c.checked_error)})",
+            )[0]  # fmt: skip
+            R = c.range.get("range") if c.range else None
+            if R:
+                ax.axvline(R, color=line.get_color(), ls=":", lw=1)
+        ax.axhline(tol, color="k", ls="--", lw=1, label=f"tolerance {pct(tol)}")
+        ax.set_yscale("log")
+        ax.set_xlabel("distance from the light's centre (m); dotted: the chosen range")
+        ax.set_ylabel(f"checked error (< {floor:.0e} drawn at it)")
+        eng = f" for {imported.engine.name}" if imported.engine else ""
+        ax.set_title(f"{imported.path.name}{eng}: each light's final curve at its receivers")
+        ax.legend(fontsize=7, loc="best")
+        fig.tight_layout()
+    return fig, ax

@@ -1,0 +1,254 @@
+"""When no distance curve meets a scene's tolerance: escalate to an area-light model.
+
+The point-light model `E = I g f(d) max(0, n.l)` has an angular error no `f(d)` removes
+(docs/area.md). When every family fails a scene, `escalate` judges the area-light models of
+`attenfit.area` written for the scene's lights on the same receivers with the same judged
+error (`|E_model - E_true| / max(E_true, error_floor * E_peak)`), fits the ones with free
+parameters to the scene (one parameter set for all its lights: a wrap amount is
+dimensionless), and recommends the cheapest one within tolerance by the compiled cost of
+its shader form (`attenfit._shaders._area_forms`), saying why: the error of the light's
+exact facing curve `f*(d)` (the best any `f(d)` can do per distance) and where it is.
+Spot lights are not escalated (an area model has no spot profile).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import jax
+import numpy as np
+
+from .._curves import AreaModel, get_area_model, list_area_models
+from .._errors import AttenfitError
+from .._fit import fit
+from .._shaders import LANGUAGES
+from .._shaders._area_forms import area_compiled_cost, area_function_source
+from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep
+from ._fits import LightData
+from ._recommendation import pct
+from ._scene import Scene
+from ._types import LightTruth
+
+__all__ = ["AreaCandidate", "AreaEscalation", "escalate"]
+
+
+@dataclasses.dataclass(frozen=True)
+class AreaCandidate:
+    """One area model judged on a scene: its error (max over lights), compiled cost, status."""
+
+    model: str
+    fitted: bool
+    params: dict[str, float]
+    error: float
+    error_by_light: tuple[float, ...]
+    cost: float
+    status: str  # "pass" | "fail"
+
+    @property
+    def label(self) -> str:
+        return self.model + (" (fitted)" if self.fitted else "")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "model": self.model,
+            "fitted": self.fitted,
+            "params": dict(self.params),
+            "error": self.error,
+            "error_by_light": list(self.error_by_light),
+            "shader_cost": self.cost,
+            "status": self.status,
+        }
+
+
+@dataclasses.dataclass(frozen=True)
+class AreaEscalation:
+    """What the area models do on a scene no family meets: `why` (no f(d) can, and where),
+    `candidates` (passing by cost, then failing by error), `winner` (the cheapest within
+    tolerance, or None), `closest` (the most accurate), `shaders` (the winner's function per
+    language, one per light)."""
+
+    why: str
+    candidates: tuple[AreaCandidate, ...]
+    winner: AreaCandidate | None
+    closest: AreaCandidate | None
+    cost_label: str
+    shaders: dict[str, str]
+    tolerance: float
+
+    def summary(self, families: str = "no family meets the tolerance") -> str:
+        """One line: the area model recommended and why, or that none meets the tolerance
+        (after `families`, what the recommendation says of the families)."""
+        if self.winner is not None:
+            w = self.winner
+            return (
+                f"recommended: the area model {w.label} (max error {pct(w.error)} <= tolerance "
+                f"{pct(self.tolerance)}, shader cost {w.cost:g}): {self.why}"
+            )
+        c = self.closest
+        near = f"; closest: the area model {c.label} with max error {pct(c.error)}" if c else ""
+        return f"{families}; no area model meets it either{near}; {self.why}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "why": self.why,
+            "summary": self.summary(),
+            "cost": self.cost_label,
+            "winner": None if self.winner is None else self.winner.to_dict(),
+            "closest": None if self.closest is None else self.closest.to_dict(),
+            "candidates": [c.to_dict() for c in self.candidates],
+        }
+
+    def markdown(self) -> list[str]:
+        """The recommendation's section on the area models (lines)."""
+        out = [
+            "## Beyond a distance curve: area-light models",
+            "",
+            self.why[0].upper() + self.why[1:] + ".",
+            "",
+            f"Area models judged on the same receivers; cost: {self.cost_label}.",
+            "",
+            "| area model | status | max error | shader cost | parameters |",
+            "|---|---|---|---|---|",
+        ]
+        for c in self.candidates:
+            params = ", ".join(f"{k} = {v:.5g}" for k, v in c.params.items()) if c.fitted else ""
+            out.append(f"| {c.label} | {c.status} | {pct(c.error)} | {c.cost:g} | {params} |")
+        return [*out, ""]
+
+
+def _facing_curve(light: Any) -> Any:
+    """The light's exact facing attenuation f*(d) (numpy): the best f(d) at each distance."""
+    r = float(light.radius)
+    if isinstance(light, DiskEmitter):
+        return lambda d: 1 / (d * d + r * r)
+    if isinstance(light, CapsuleEmitter):
+        ds = facing_sweep(light, 1.0001 * r, 1e4 * r, 512, dtype=np.float64)
+        ld, lf = np.log(ds.distance()), np.log(ds.attenuation())
+        return lambda d: np.exp(np.interp(np.log(np.maximum(d, ds.distance()[0])), ld, lf))
+    return lambda d: 1 / np.maximum(d, r) ** 2
+
+
+def _models_for(kinds: set[str]) -> list[AreaModel]:
+    want = (
+        {"disk"} if kinds == {"disk"} else {"sphere"} if kinds <= {"sphere", "capsule"} else set()
+    )
+    return [
+        get_area_model(n)()
+        for n in list_area_models()
+        if n != "point_light" and get_area_model(n).light in want
+    ]
+
+
+def escalate(
+    scene: Scene,
+    truths: Sequence[LightTruth],
+    datas: Sequence[LightData],
+    best_family: Any = None,
+) -> AreaEscalation | None:
+    """Judge the area models on `scene` (whose families all fail); None when none applies
+    (spot lights, or lights of kinds no area model is written for together)."""
+    lights = [scene.lights[t.light] for t in truths]
+    if any(light.is_spot for light in lights):
+        return None
+    models = _models_for({light.kind for light in lights})
+    if not models:
+        return None
+    with jax.enable_x64(True):
+        inputs = []
+        worst = (-1.0, "")
+        for k, (t, x) in enumerate(zip(truths, datas, strict=True)):
+            em = t.dataset.emitter
+            j = t.judged
+            pts = np.asarray(t.dataset.points, dtype=np.float64)[j]
+            nrm = np.asarray(t.dataset.normals, dtype=np.float64)[j]
+            ai = area_inputs(em, pts, nrm)
+            stacked = np.stack([np.asarray(v, dtype=np.float64) for v in ai])
+            inputs.append((stacked, float(em.intensity)))
+            best = x.wpt * _facing_curve(em)(x.d)
+            err = np.abs(best - x.E_true) / x.denom
+            i = int(np.argmax(err))
+            if err[i] > worst[0]:
+                p = ", ".join(f"{v:.3g}" for v in pts[i])
+                worst = (
+                    float(err[i]),
+                    f"receiver ({p}) of light {k} (d = {x.d[i]:.3g} m, n.l = {stacked[1, i]:.2f})",
+                )
+        why = (
+            f"no f(d) can: the error is angular, the best f(d) (the light's exact facing "
+            f"curve) is {pct(worst[0])} off at {worst[1]}"
+        )
+        if best_family is not None and best_family.error is not None:
+            why += f"; the most accurate fitted family, {best_family.label}, is {pct(best_family.error)} off"
+        unlit = sum(t.unlit for t in truths)
+        if unlit:
+            why += f"; {unlit} receivers facing away from the light's centre are lit and get 0 from any f(d)"
+        candidates = []
+        for m in models:
+            for variant, fitted in _variants(m, inputs, datas):
+                errs = []
+                for (stacked, intensity), x in zip(inputs, datas, strict=True):
+                    pred = intensity * np.asarray(variant.evaluate(stacked), dtype=np.float64)
+                    errs.append(float(np.max(np.abs(pred - x.E_true) / x.denom)))
+                e = max(errs)
+                ok = math.isfinite(e) and e <= scene.tolerance
+                candidates.append(
+                    AreaCandidate(
+                        variant.name,
+                        fitted,
+                        {k: float(np.asarray(v)) for k, v in variant.params().items()},
+                        e,
+                        tuple(errs),
+                        area_compiled_cost(variant).cost,
+                        "pass" if ok else "fail",
+                    )
+                )
+    label = area_compiled_cost(models[0]).label()
+    passing = sorted((c for c in candidates if c.status == "pass"), key=lambda c: (c.cost, c.error))
+    failing = sorted((c for c in candidates if c.status == "fail"), key=lambda c: c.error)
+    winner = passing[0] if passing else None
+    closest = min(candidates, key=lambda c: (c.error, c.cost)) if candidates else None
+    shaders = _shaders(winner, [float(light.radius) for light in lights]) if winner else {}
+    return AreaEscalation(
+        why, (*passing, *failing), winner, closest, label, shaders, float(scene.tolerance)
+    )
+
+
+def _variants(
+    model: AreaModel, inputs: Sequence[tuple[np.ndarray, float]], datas: Sequence[LightData]
+) -> list[tuple[AreaModel, bool]]:
+    """The model as shipped, and fitted to the scene's judged errors where it has free
+    parameters (absolute loss weighted by I / denominator: the residual is the judged error)."""
+    out: list[tuple[AreaModel, bool]] = [(model, False)]
+    if not model.free_by_default():
+        return out
+    x = np.concatenate([s for s, _ in inputs], axis=1)
+    target = np.concatenate([x_.E_true / i for (_, i), x_ in zip(inputs, datas, strict=True)])
+    w = np.concatenate([i / x_.denom for (_, i), x_ in zip(inputs, datas, strict=True)])
+    try:
+        res = fit(model, x, target, loss="absolute", weights=w)
+    except AttenfitError:
+        return out
+    if all(np.all(np.isfinite(np.asarray(v))) for v in res.model.params().values()):
+        out.append((res.model, True))
+    return out
+
+
+def _shaders(winner: AreaCandidate, radii: Sequence[float]) -> dict[str, str]:
+    """The winner's function per language, one per light (`attenfit_area_light_<k>`)."""
+    model = get_area_model(winner.model)(**(winner.params if winner.fitted else {}))
+    head = (
+        f"// attenfit area model {winner.model}{' (fitted)' if winner.fitted else ''}: "
+        f"max error {pct(winner.error)} over the scene's judged receivers\n"
+        "// inputs: d (to the light's centre), cos_r = n.l, cos_e (at the emitter), "
+        "cos_n = -n.m (a disk's axis m), g (the emitter factor); returns E / I\n"
+    )
+    out = {}
+    for lang in LANGUAGES:
+        parts = [head]
+        for k, r in enumerate(radii):
+            parts.append(area_function_source(model, lang, f"attenfit_area_light_{k}", r))
+        out[lang] = "\n".join(parts)
+    return out

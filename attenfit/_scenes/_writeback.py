@@ -1,0 +1,130 @@
+"""A copy of a USD or glTF scene with each light's answer written in (`--write-back OUT`).
+
+* glTF (`OUT.gltf`): each `KHR_lights_punctual` light gets the chosen `range` (the extension's
+  own property; a light shared by several nodes gets the largest of their ranges) and the
+  answer in `extras.attenfit` (family, parameters, errors, engine properties). Buffers are
+  embedded as `data:` URIs so the copy stands alone wherever it is written.
+* USD (`OUT.usda`): the composed stage, flattened into one layer (references and sublayers
+  resolved, so the copy stands alone), with custom attributes in the `attenfit:` namespace
+  on each light prim: `attenfit:family`, `attenfit:range`, `attenfit:error`,
+  `attenfit:checkedError`, `attenfit:params:NAME`, `attenfit:engine` and
+  `attenfit:<engine>:PROPERTY`.
+
+The input is never touched; the copy is written atomically and an existing file is
+replaced only with `force`.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+import os
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from .._atomic import atomic_write, check_output_path
+from .._errors import BadValueError
+from ._choices import LightChoice
+from ._files import ImportedScene
+
+__all__ = ["write_back"]
+
+
+def _answer(c: LightChoice, engine: str | None) -> dict[str, Any]:
+    out = {
+        "family": c.family,
+        "status": c.status,
+        "params": dict(c.params),
+        "error": c.error,
+        "checked_error": c.checked_error,
+    }
+    if c.spot is not None:
+        out["spot"] = dict(c.spot)
+    if c.range is not None and c.range.get("range") is not None:
+        out["range"] = c.range["range"]
+        out["threshold"] = c.range["threshold"]
+    if engine is not None:
+        out["engine"] = engine
+        out["properties"] = dict(c.properties)
+    return out
+
+
+def write_back(
+    imported: ImportedScene,
+    choices: Sequence[LightChoice],
+    out: str | os.PathLike,
+    *,
+    force: bool = False,
+) -> Path:
+    """Write the copy of `imported`'s file with `choices` into `out` (see the module
+    docstring); returns `out`."""
+    out = Path(out)
+    want = ".gltf" if imported.format == "gltf" else ".usda"
+    if out.suffix.lower() != want:
+        raise BadValueError(
+            f"--write-back {str(out)!r}: a {imported.format.upper()} scene is written back as "
+            f"a {want} file"
+        )
+    if out.resolve() == imported.path.resolve():
+        raise BadValueError(f"--write-back {str(out)!r}: is the input file; it is never touched")
+    check_output_path(out, force=force)
+    engine = imported.engine.name if imported.engine is not None else None
+    if imported.format == "gltf":
+        text = _gltf_text(imported, choices, engine)
+    else:
+        text = _usd_text(imported, choices, engine)
+    return atomic_write(out, text, force=force)
+
+
+def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -> str:
+    from ._gltf import load_gltf
+
+    gltf, buffers = load_gltf(imported.path, imported.path.name)
+    lights = gltf.extensions["KHR_lights_punctual"]["lights"]
+    for c in choices:
+        d = lights[imported.refs[c.light]]
+        R = c.range.get("range") if c.range is not None else None
+        if R is not None and R > 0 and math.isfinite(R):
+            d["range"] = max(float(R), float(d.get("range", 0.0)) if "range" in d else 0.0)
+        extras = d.setdefault("extras", {})
+        answers = extras.setdefault("attenfit", [])
+        answers.append({"node_light": c.name, **_answer(c, engine)})
+    for k, buf in enumerate(gltf.buffers or []):
+        buf.uri = "data:application/octet-stream;base64," + base64.b64encode(buffers[k]).decode()
+    gltf.set_binary_blob(None)
+    return gltf.to_json(indent=1) + "\n"
+
+
+def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -> str:
+    from pxr import Sdf, Usd
+
+    flat = Usd.Stage.Open(str(imported.path)).Flatten()
+    stage = Usd.Stage.Open(flat)
+    for c in choices:
+        prim = stage.GetPrimAtPath(str(imported.refs[c.light]))
+        ans = _answer(c, engine)
+
+        def put(name: str, value: Any, prim=prim) -> None:
+            if isinstance(value, bool):
+                prim.CreateAttribute(name, Sdf.ValueTypeNames.Bool, custom=True).Set(value)
+            elif isinstance(value, int | float):
+                prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=True).Set(float(value))
+            elif isinstance(value, str):
+                prim.CreateAttribute(name, Sdf.ValueTypeNames.String, custom=True).Set(value)
+
+        for key in ("family", "status", "error", "checked_error", "range", "threshold", "engine"):
+            if ans.get(key) is not None:
+                put(f"attenfit:{_camel(key)}", ans[key])
+        for k, v in ans["params"].items():
+            put(f"attenfit:params:{k}", v)
+        for k, v in (ans.get("spot") or {}).items():
+            put(f"attenfit:spot:{k}", v)
+        for k, v in (ans.get("properties") or {}).items():
+            put(f"attenfit:{engine}:{k}", v)
+    return stage.GetRootLayer().ExportToString()
+
+
+def _camel(key: str) -> str:
+    head, *rest = key.split("_")
+    return head + "".join(w.title() for w in rest)
