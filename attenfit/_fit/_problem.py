@@ -133,9 +133,16 @@ def build_problem(spec: Spec, free, loss, solver_obj, max_steps, guess, rtol, at
 
         def every(self, stride):
             """The same problem on every `stride`-th sample (the start scan's)."""
-            w = None if self.weights is None else self.weights[::stride]
+
+            def every(x):  # along the samples (an area model's d has rows of them)
+                return None if x is None else x[..., ::stride]
+
             return Passes(
-                self.values, self.d[::stride], self.target[::stride], w, self.inv_target[::stride]
+                self.values,
+                every(self.d),
+                every(self.target),
+                every(self.weights),
+                every(self.inv_target),
             )
 
         def model_at(self, u):
