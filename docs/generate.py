@@ -421,7 +421,9 @@ def main(argv: list[str]) -> int:
     if unknown:
         print(f"docs: unknown sections {unknown}; known: {', '.join(SECTIONS)}", file=sys.stderr)
         return 2
-    attenfit._fit.enable_persistent_cache()
+    from attenfit._fit import enable_persistent_cache
+
+    enable_persistent_cache()
     inputs = Inputs()
     stale = []
     for name in names:

@@ -442,3 +442,12 @@ def test_an_output_may_not_replace_an_input(tmp_path, capsys):
     with _input.tracking():  # outside a command (a notebook) nothing is tracked for long
         assert _input.inputs() == frozenset()
     assert _input.inputs() == frozenset()
+
+
+def test_a_builder_needs_no_more_memory_than_it_announces():
+    """Measured in a fresh process: the peak above the baseline of 300,000 receivers."""
+    sys.path.insert(0, str(REPO))
+    from benchmarks.bench_memory import estimate, measure
+
+    m = measure("builder", 300_000)
+    assert 0 < m["peak"] - m["base"] <= estimate("builder", 300_000), m

@@ -96,7 +96,7 @@ class Scene:
 
 #: Peak memory of `attenfit scene` per (light, receiver) pair and its baseline, measured by
 #: `python -m benchmarks memory` (0.8 kB a pair above about 1 GB) and rounded up.
-BYTES_PER_PAIR = 1024
+BYTES_PER_PAIR = 2048
 BYTES_BASE = 1 << 30
 
 

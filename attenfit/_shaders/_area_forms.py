@@ -25,7 +25,7 @@ import numpy as np
 
 from .._curves import AreaModel, PointLight
 from ._compile import Compiled, cost_method, spirv_counts
-from ._forms import shader_form
+from ._forms import _Lets, shader_form
 from ._ir import Expr, Ref, ShaderForm, evaluate_form, fn
 from ._print import print_form
 
@@ -43,15 +43,6 @@ AREA_FORM_INPUTS = ("d", "cos_r", "cos_e", "cos_n", "g")
 
 _BUILDERS: dict[str, Callable[[AreaModel], ShaderForm]] = {}
 _PI = math.pi
-
-
-class _Lets:
-    def __init__(self) -> None:
-        self.items: list[tuple[str, Expr]] = []
-
-    def __call__(self, name: str, expr: Expr) -> Ref:
-        self.items.append((name, expr))
-        return Ref(name, "let")
 
 
 def _inputs() -> dict[str, Ref]:

@@ -259,8 +259,9 @@ def _count(name: str, n: Any) -> int:
 
 
 #: Peak memory of a builder per receiver (points, normals, E, the irradiance's chunked
-#: intermediates), measured by `python -m benchmarks memory` (about 0.3 kB) and rounded up.
-BYTES_PER_RECEIVER = 1024
+#: intermediates, the program compiled for its shape), measured by `python -m benchmarks
+#: memory` (about 1.2 kB at 300,000 receivers) and rounded up.
+BYTES_PER_RECEIVER = 2048
 
 
 def _receivers_within_budget(n: int) -> int:
