@@ -8,7 +8,9 @@ eq. 7), on 256 distances d = r (0.05 + 20 x), x uniform in [0, 1].
   with an analytic Jacobian;
 - 1,000 fits with radii log-uniform in [0.05, 2]: one `attenfit.fit_many` call against a
   Python loop of scipy fits;
-- compile time of `fit` per (family, solver): first call minus a warm call.
+- compile time of `fit` per (family, solver): first call minus a warm call;
+- every parameterised family, 1,000 fits each to lights it does not represent exactly,
+  against scipy's loop with exact Jacobians (`benchmarks/fit_families.py`).
 
 Both sides start from the same point (kc = r^2/2, kl = 0.1 r, kq = 1) and use the same
 tolerances (1e-8: scipy's ftol = xtol = gtol, attenfit's rtol = atol); the table reports
@@ -219,9 +221,12 @@ def bench_compile() -> None:
 
 
 def main() -> None:
+    from . import fit_families
+
     bench_single()
     bench_batch()
     bench_compile()
+    fit_families.main()
 
 
 if __name__ == "__main__":

@@ -16,10 +16,11 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
+import optimistix as optx
 from jaxtyping import Array
 
 from .. import _cache, _progress
-from ._problem import build_problem
+from ._problem import build_problem, packed_slices
 from ._solvers import (
     make_solver,
 )
@@ -58,6 +59,16 @@ class _OnHost:
 _CHUNK = 1024
 
 
+def _by_batch_size(large: Callable, small: Callable) -> Callable:
+    """`large` for a batch of at least `_ROUNDS_MIN_BATCH` problems, else `small`."""
+
+    def run(*args):
+        batch = jax.tree_util.tree_leaves(args)[0].shape[0]
+        return (large if batch >= _ROUNDS_MIN_BATCH else small)(*args)
+
+    return run
+
+
 def _chunked(vfn: Callable, chunk: int) -> Callable:
     """`vfn` (vmapped over axis 0) applied chunk by chunk with `lax.map`; pads the batch."""
 
@@ -74,6 +85,43 @@ def _chunked(vfn: Callable, chunk: int) -> Callable:
 
         out = jax.lax.map(lambda a: vfn(*a), jax.tree_util.tree_map(split, args))
         return out.reshape((n_chunks * chunk, *out.shape[2:]))[:batch]
+
+    return run
+
+
+#: A batch of at least `_ROUNDS_MIN_BATCH` problems is solved in two rounds: every problem
+#: with at most `_FIRST_ROUND` steps, then those it left unfinished again from their start
+#: with every step allowed, `_REST_SHARE` of the batch at a time. A vmapped solve steps
+#: every problem until its slowest one has finished, so one straggler costs the whole batch
+#: its steps: 1,000 `cryengine_linear` fits took median 0 steps and 36 at most, `madams_tan`
+#: 18 and 71 (`python -m benchmarks fit`). The second round repeats the stragglers' first
+#: steps, and each problem takes the path it takes alone (as `fit`'s), so results are the
+#: same as in one round.
+_FIRST_ROUND = 16
+_ROUNDS_MIN_BATCH = 256
+_REST_SHARE = 8
+
+
+def _in_rounds(first: Callable, rest: Callable, status_col: int, max_steps_code: int) -> Callable:
+    """`rest` (the full solve, packed outputs) as `first` (the same, fewer steps allowed),
+    then `rest` again on the problems whose status column reads `max_steps_code`."""
+
+    def run(*args):
+        out = first(*args)
+        batch = out.shape[0]
+        share = batch // _REST_SHARE
+        unfinished = out[:, status_col] == max_steps_code
+        count = jnp.sum(unfinished)
+        order = jnp.argsort(jnp.invert(unfinished), stable=True)  # unfinished first
+        order = jnp.concatenate([order, order[:share]])  # slices never run past the end
+
+        def body(i, out):
+            pos = i * share + jnp.arange(share)
+            idx = jax.lax.dynamic_slice(order, (i * share,), (share,))
+            res = rest(*jax.tree_util.tree_map(lambda x: x[idx], args))
+            return out.at[idx].set(jnp.where((pos < count)[:, None], res, out[idx]))
+
+        return jax.lax.fori_loop(0, (count + share - 1) // share, body, out)
 
     return run
 
@@ -232,6 +280,17 @@ def compiled_solve(
         )
         run = build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched)
         if batched:
+            if max_steps > 2 * _FIRST_ROUND:
+                first = build_problem(
+                    spec, free, loss, solver_obj, _FIRST_ROUND, guess, rtol, atol, batched
+                )
+                rounds = _in_rounds(
+                    first,
+                    run,
+                    packed_slices(len(free_kinds(spec, free)))["result"].start,
+                    optx.RESULTS.nonlinear_max_steps_reached._value.item(),
+                )
+                run = _by_batch_size(rounds, run)
             fn = jax.jit(_chunked(run, _CHUNK), compiler_options=_COMPILER_OPTIONS)
         else:
             fn = jax.jit(

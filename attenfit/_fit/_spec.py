@@ -38,6 +38,8 @@ class Spec:
     shapes: tuple[tuple[int, ...], ...]  # per-problem shape of each parameter
     family: str | None
     length_params: tuple[str, ...]
+    #: the family's range parameter (a window's end), if it has one
+    range_param: str | None = None
     #: the model's pytree leaves are exactly its parameters, in `names` order, so a fitted
     #: model is `tree_unflatten(treedef, values)` (20x cheaper than `eqx.tree_at`)
     leaves_are_params: bool = False
@@ -92,6 +94,7 @@ def _new_family_spec(model: Family, treedef: Any) -> Spec:
         shapes=(),  # set by _prepare, which knows the batch size
         family=getattr(cls, "name", None),
         length_params=tuple(getattr(cls, "length_params", ())),
+        range_param=getattr(cls, "range_param", None),
         leaves_are_params=_leaves_are_params(model, names),
     )
 

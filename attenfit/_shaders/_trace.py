@@ -98,10 +98,10 @@ def _dtype_code(dtype: Any) -> str:
     raise BadTypeError(f"cannot translate values of dtype {dt}")
 
 
-def _plain_value(value: Any, dtype: str) -> Any:
+def _plain_value(value: Any, dtype: str, float64: bool = False) -> Any:
     arr = np.asarray(value)
     if dtype == "f32":
-        return float(np.float32(arr))
+        return float(arr) if float64 else float(np.float32(arr))
     if dtype == "i32":
         return int(arr)
     return bool(arr)
@@ -110,7 +110,8 @@ def _plain_value(value: Any, dtype: str) -> Any:
 class _Builder:
     """Collects scalar ops while walking a jaxpr; values are object arrays of atoms."""
 
-    def __init__(self) -> None:
+    def __init__(self, float64: bool = False) -> None:
+        self.float64 = float64  # constants kept in float64 (else rounded to float32)
         self.ops: list[Op] = []
         self._ids = itertools.count()
         self._seen: dict[tuple, Atom] = {}
@@ -155,7 +156,7 @@ class _Builder:
 def _key(a: Atom) -> Any:
     """A hashable identity of an atom that tells 0.0 from -0.0 (and never merges NaNs)."""
     if isinstance(a, Const) and a.dtype == "f32":
-        return ("f32", int(np.float32(a.value).view(np.uint32)), a.value != a.value or None)
+        return ("f32", int(np.float64(a.value).view(np.uint64)), a.value != a.value or None)
     return a
 
 
@@ -165,12 +166,12 @@ def _as_obj(value: Any) -> np.ndarray:
     return arr
 
 
-def _const_array(value: Any) -> np.ndarray:
+def _const_array(b: _Builder, value: Any) -> np.ndarray:
     arr = np.asarray(value)
     code = _dtype_code(arr.dtype)
     out = np.empty(arr.shape, dtype=object)
     for idx in np.ndindex(arr.shape):
-        out[idx] = Const(_plain_value(arr[idx], code), code)
+        out[idx] = Const(_plain_value(arr[idx], code, b.float64), code)
     return out
 
 
@@ -180,11 +181,11 @@ def _walk(b: _Builder, jaxpr: Any, consts: list[Any], args: list[np.ndarray]) ->
 
     def read(atom: Any) -> np.ndarray:
         if hasattr(atom, "val"):  # a Literal
-            return _const_array(atom.val)
+            return _const_array(b, atom.val)
         return env[atom]
 
     for var, val in zip(jaxpr.constvars, consts, strict=True):
-        env[var] = _const_array(val)
+        env[var] = _const_array(b, val)
     for var, val in zip(jaxpr.invars, args, strict=True):
         env[var] = val
     for eqn in jaxpr.eqns:
@@ -303,7 +304,7 @@ def _translate(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]
     if name == "iota":
         aval = out_avals[0]
         idx = np.indices(aval.shape)[params["dimension"]]
-        return [_const_array(idx.astype(np.dtype(aval.dtype)))]
+        return [_const_array(b, idx.astype(np.dtype(aval.dtype)))]
     if name in ("dynamic_slice", "gather", "dynamic_update_slice", "scatter"):
         return [_static_index(b, eqn, ins)]
     if name in ("reduce_sum", "reduce_max", "reduce_min", "reduce_prod", "reduce_and", "reduce_or"):
@@ -320,7 +321,8 @@ def _translate(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]
             if x.dtype == to:
                 return x
             if isinstance(x, Const):
-                return Const(_plain_value(np.asarray(x.value).astype(params["new_dtype"]), to), to)
+                value = np.asarray(x.value).astype(params["new_dtype"])
+                return Const(_plain_value(value, to, b.float64), to)
             return b.emit("convert", [x], to)
 
         return [_map(convert, ins[0])]
@@ -484,24 +486,32 @@ def _gather_element(
     return rec((), 0)
 
 
-def trace(family: Family) -> Program:
-    """The scalar program of `family(d)` for a float32 scalar `d` (see the module docstring)."""
+def trace(family: Family, *, float64: bool = False) -> Program:
+    """The scalar program of `family(d)` for a float32 scalar `d` (see the module docstring).
+
+    `float64=True`: the program of its float64 computation instead (JAX's x64 mode must be
+    on), its constants and `values` kept in float64, for evaluating it in float64 on the host
+    (`Program.evaluate_numpy` and shader code are float32).
+    """
     if isinstance(family, type) and issubclass(family, Family):
         family = family()
     if not isinstance(family, Family):
         raise BadTypeError(f"expected an attenfit.Family instance, got {type(family).__name__}")
+    if float64 and not jax.config.jax_enable_x64:
+        raise BadValueError("trace(float64=True) needs JAX's x64 mode (jax_enable_x64)")
+    dtype = np.float64 if float64 else np.float32
     names = family.param_names()
-    values = {n: np.asarray(getattr(family, n), np.float32) for n in names}
+    values = {n: np.asarray(getattr(family, n), dtype) for n in names}
     for n, v in values.items():
         if not np.all(np.isfinite(v)):
             raise BadValueError(f"parameter {n}={v.tolist()} of {family.name!r} is not finite")
-    fam32 = float32_family(family)
+    fam = family if float64 else float32_family(family)
 
     def fn(d, *ps):
-        model = eqx.tree_at(lambda m: [getattr(m, n) for n in names], fam32, list(ps))
+        model = eqx.tree_at(lambda m: [getattr(m, n) for n in names], fam, list(ps))
         return model(d)
 
-    args = [jnp.zeros((), jnp.float32), *(jnp.asarray(values[n]) for n in names)]
+    args = [jnp.zeros((), dtype), *(jnp.asarray(values[n]) for n in names)]
     closed = jax.make_jaxpr(fn)(*args)
     out_aval = closed.out_avals[0]
     if tuple(out_aval.shape) != ():
@@ -511,7 +521,7 @@ def trace(family: Family) -> Program:
             f"(parameter shapes {shapes}); export and cost take one set of parameters, "
             "not a batch: pick one problem"
         )
-    b = _Builder()
+    b = _Builder(float64)
     d = b.new_var("f32")
     param_vars: dict[str, tuple[Var, ...]] = {}
     in_arrays = [_as_obj(d)]
