@@ -18,7 +18,7 @@ import re
 import stat
 import tomllib
 import zipfile
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -30,6 +30,7 @@ __all__ = [
     "LIMITS",
     "MAX_DEPTH",
     "check_file",
+    "declare",
     "inputs",
     "load_json",
     "load_toml",
@@ -183,6 +184,13 @@ def tracking() -> Iterator[None]:
         yield
     finally:
         _INPUTS = saved
+
+
+def declare(paths: Iterable[str | os.PathLike]) -> None:
+    """Count `paths` as inputs of the running command before it reads them (the CLI declares
+    its file arguments, so an output that would replace one is refused before any work)."""
+    if _INPUTS is not None:
+        _INPUTS.update(os.path.realpath(p) for p in paths)
 
 
 def inputs() -> frozenset[str]:

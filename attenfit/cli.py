@@ -127,6 +127,7 @@ def _main(argv: Sequence[str] | None) -> int:
             return EXIT_BAD_INPUT
         progress = _progress.Progress(f"attenfit {args.verb}", quiet=args.quiet)
         with _progress.active(progress), _input.tracking():  # outputs may not replace inputs
+            _input.declare(_file_arguments(args))
             return int(args.run(args))
     except _UsageError as exc:
         print(str(exc).replace("\n", " "), file=sys.stderr)
@@ -156,6 +157,18 @@ def _main(argv: Sequence[str] | None) -> int:
             file=sys.stderr,
         )
         return EXIT_ERROR
+
+
+def _file_arguments(args: argparse.Namespace) -> list[str]:
+    """The command's arguments that name existing files, outputs aside: its inputs."""
+    found = []
+    for key, value in vars(args).items():
+        if key in ("out", "write_back"):
+            continue
+        for v in value if isinstance(value, list) else [value]:
+            if isinstance(v, str) and os.path.isfile(v):
+                found.append(v)
+    return found
 
 
 def run() -> None:
