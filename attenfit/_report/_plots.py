@@ -59,11 +59,20 @@ def _tick_text(v: float, _pos: Any = None) -> str:
 
 
 def plain_log_ticks(axis: Any) -> None:
-    """Use `_tick_text` labels (major) and no minor labels on a log or symlog `axis`."""
-    from matplotlib.ticker import FuncFormatter, NullFormatter
+    """Use `_tick_text` labels on a log or symlog `axis`: the decades, and the minor ticks
+    too where the view spans less than a decade (else a narrow axis has no label at all)."""
+    from matplotlib.ticker import FuncFormatter
+
+    def minor(v: float, pos: Any = None) -> str:
+        lo, hi = sorted(abs(x) for x in axis.get_view_interval())
+        span = hi / lo if lo > 0 else np.inf
+        if span >= 10 or v == 0:
+            return ""
+        mantissa = round(abs(v) / 10 ** np.floor(np.log10(abs(v))), 6)
+        return _tick_text(v) if span < 3 or mantissa in (2.0, 5.0) else ""
 
     axis.set_major_formatter(FuncFormatter(_tick_text))
-    axis.set_minor_formatter(NullFormatter())
+    axis.set_minor_formatter(FuncFormatter(minor))
 
 
 def curve_styles(labels: Sequence[str]) -> dict[str, dict[str, Any]]:
