@@ -445,7 +445,8 @@ def test_an_output_may_not_replace_an_input(tmp_path, capsys):
 
 
 def test_a_builder_needs_no_more_memory_than_it_announces():
-    """Measured in a fresh process: the peak above the baseline of 300,000 receivers."""
+    """Measured in a fresh process: the peak of 300,000 receivers above the resident memory
+    before them (after a small warm-up call)."""
     sys.path.insert(0, str(REPO))
     from benchmarks.bench_memory import estimate, measure
 

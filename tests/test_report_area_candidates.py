@@ -11,9 +11,9 @@ import jax
 import numpy as np
 
 import attenfit as af
+from attenfit._report import _decide
 from attenfit._report._area_candidates import area_candidates
 from attenfit._report._configs import emitter_config
-from attenfit._report._decide import _SOURCES
 
 
 def _config(kind: str):
@@ -27,7 +27,7 @@ def _config(kind: str):
 
 
 def test_area_models_are_a_registered_source():
-    assert area_candidates in _SOURCES
+    assert area_candidates in _decide._SOURCES
 
 
 def test_exact_sphere_is_exact_on_every_set_and_band():

@@ -241,14 +241,22 @@ def fit_dataset(
                 f"weights has shape {user_w.shape}, the dataset has {E.shape[0]} receivers"
             )
     d, wgt, E, stderr = d[keep], wgt[keep], E[keep], stderr[keep]
-    target = E / wgt
+    with np.errstate(over="ignore"):  # an attenuation past the float range: refused below
+        target = E / wgt
+    if not np.all(np.isfinite(target)):
+        bad = float(E[~np.isfinite(target)][0])
+        raise BadValueError(
+            f"the dataset's E = {bad!r} gives an attenuation E / (I g n.l) beyond the float "
+            "range; attenfit cannot judge a fit to it"
+        )
     if loss == "absolute":
         w = wgt.copy()
     else:
         w = np.ones_like(E)
     if np.any(stderr > 0):
         s = np.where(stderr > 0, stderr, stderr[stderr > 0].min())
-        w = w / s * (E if loss != "absolute" else 1)
+        with np.errstate(over="ignore"):  # weights past the float range: refused by `fit`
+            w = w / s * (E if loss != "absolute" else 1)
     if user_w is not None:
         w = w * user_w[keep]
     weights = None if np.all(w == 1) else w

@@ -125,8 +125,9 @@ class Dataset:
             raise BadValueError(f"E must be >= 0 (an irradiance), got {E[E < 0].flat[0].item()!r}")
         if np.any(stderr < 0):
             raise BadValueError(f"stderr must be >= 0, got {stderr[stderr < 0].flat[0].item()!r}")
-        if n and not np.all(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0):
-            zero = int(np.argmin(np.sum(normals.astype(np.float64) ** 2, axis=1) > 0))
+        size = np.max(np.abs(normals), axis=1) if n else None  # no squares: 1e308 overflows
+        if n and not np.all(size > 0):
+            zero = int(np.argmin(size > 0))
             raise BadValueError(
                 f"normals must be non-zero vectors; normal {zero} is {normals[zero].tolist()}"
             )
