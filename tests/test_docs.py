@@ -29,9 +29,17 @@ def _id(page: Path) -> str:
 
 #: The pages with code to run (every page is read by `test_every_page_is_read`).
 RUNNABLE = [page for page in PAGES if script(page)]
+#: Pages whose blocks take 1.5-3 minutes of a cold 2-core machine, each covered block by
+#: block by its own tests (test_scene, test_scene_files, test_export, test_compiled_cost,
+#: test_report): run with `pytest -m slow` (and before every release), not in CI's 10 minutes.
+HEAVY = {"docs/scenes.md", "docs/shaders.md", "docs/report.md", "docs/usd-gltf.md"}
 
 
-@pytest.mark.parametrize("page", RUNNABLE, ids=_id)
+@pytest.mark.parametrize(
+    "page",
+    [pytest.param(p, marks=pytest.mark.slow) if _id(p) in HEAVY else p for p in RUNNABLE],
+    ids=_id,
+)
 def test_page_runs_top_to_bottom(page, tmp_path):
     todo = script(page)
     shutil.copytree(ROOT / "examples", tmp_path / "examples", ignore=shutil.ignore_patterns("out"))

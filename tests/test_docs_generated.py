@@ -52,7 +52,16 @@ def inputs():
     return generate.Inputs()
 
 
-@pytest.mark.parametrize("name", list(generate.SECTIONS))
+#: Sections made from the full default report or the example scenes' recommendations (a few
+#: minutes from a cold cache): run with `pytest -m slow` or `python docs/generate.py --check`.
+HEAVY = {"report-decision", "report-decision-doc", "report-summary", "report-findings",
+         "example-scenes", "spirv-costs", "sass-costs"}  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n in HEAVY else n for n in generate.SECTIONS],
+)
 def test_generated_section_is_current(name, inputs):
     try:
         made = generate.SECTIONS[name].make(inputs).rstrip("\n")
