@@ -29,10 +29,18 @@ def _id(page: Path) -> str:
 
 #: The pages with code to run (every page is read by `test_every_page_is_read`).
 RUNNABLE = [page for page in PAGES if script(page)]
-#: Pages whose blocks take 1.5-3 minutes of a cold 2-core machine, each covered block by
+#: Pages whose blocks take 1-3 minutes of a cold 2-core machine, each covered block by
 #: block by its own tests (test_scene, test_scene_files, test_export, test_compiled_cost,
-#: test_report): run with `pytest -m slow` (and before every release), not in CI's 10 minutes.
-HEAVY = {"docs/scenes.md", "docs/shaders.md", "docs/report.md", "docs/usd-gltf.md"}
+#: test_report, test_fit, test_witness, test_data_gen): run with `pytest -m slow` (and before
+#: every release), not in CI's 10 minutes.
+HEAVY = {
+    "docs/scenes.md",
+    "docs/shaders.md",
+    "docs/report.md",
+    "docs/usd-gltf.md",
+    "docs/fitting.md",
+    "docs/mitsuba.md",
+}
 
 
 @pytest.mark.parametrize(
