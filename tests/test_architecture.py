@@ -237,3 +237,10 @@ def test_a_user_composes_a_family_from_the_public_parts():
     assert {"promote", "distance", "keep_nan", "yuksel", "smooth_window"} <= set(
         attenfit.parts.__all__
     )
+
+
+def test_the_cli_names_every_engine_without_importing_the_scene_stage():
+    from attenfit._cli._scene import ENGINE_NAMES
+    from attenfit._scenes._engine import ENGINES
+
+    assert ENGINE_NAMES == tuple(ENGINES)

@@ -10,11 +10,14 @@ from .. import _progress
 from .._errors import BadValueError
 from ._common import EXIT_OK
 
+#: The engines `--engine` takes: `attenfit._scenes._engine.ENGINES`, named here so that
+#: `--help` does not import the scene stage (JAX); tests/test_architecture.py checks them.
+ENGINE_NAMES = ("godot", "threejs", "unreal", "filament", "bevy", "unity", "gltf")
+
 _FILE_ONLY = ("side", "tolerance", "precision", "threshold", "samples", "radius", "write_back")
 
 
 def add_parser(sub, parents: list) -> None:
-    from .._scenes._engine import ENGINES
 
     p = sub.add_parser(
         "scene",
@@ -48,7 +51,7 @@ def add_parser(sub, parents: list) -> None:
     )
     p.add_argument(
         "--engine",
-        choices=tuple(ENGINES),
+        choices=ENGINE_NAMES,
         default=None,
         help="only what this engine can express; per light, the engine's own properties",
     )
