@@ -189,9 +189,8 @@ def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path
     An existing non-empty `path` is refused unless `force`; with `force` it is replaced only
     after the new folder is complete, so an interrupted run leaves the previous one intact.
     """
-    path = check_output_path(path, force=force, folder=True)
+    path = check_output_path(path, force=force, folder=True)  # also: not an input
     path.parent.mkdir(parents=True, exist_ok=True)
-    _check_not_input(path, True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
     os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
     try:

@@ -22,12 +22,11 @@ from ._metrics import receiver_errors
 
 
 @functools.cache
-def _cost(name: str) -> tuple[float | None, str]:
+def _cost(name: str) -> float | None:
     try:
-        c = area_compiled_cost(get_area_model(name)())
+        return area_compiled_cost(get_area_model(name)()).cost
     except Exception:  # no shader form: the table shows the cost as unknown
-        return None, ""
-    return c.cost, c.label()
+        return None
 
 
 def _params(model: Any) -> str:
@@ -59,7 +58,7 @@ def area_candidates(cfg: Any, report: Any) -> list[Candidate]:
                 Em = np.asarray(area_irradiance(model, cfg.emitter, rec.points, rec.normals))
                 rx[s] = receiver_errors(Em, rec.E, rec.ref, rec.d, rec.gap, cfg.radius)
         errors, worst, per_set = judge(rx)
-        cost, _ = _cost(name)
+        cost = _cost(name)
         out.append(
             Candidate(
                 model=name,

@@ -52,7 +52,7 @@ from .._errors import AttenfitError, BadTypeError, BadValueError
 from .._shaders import LANGUAGES, export, measure_throughput, structural_cost
 from ._fits import LightData, fit_group, fit_plan, judged_errors, light_data, shade, spot_variants
 from ._recommendation import Candidate, Recommendation, pct
-from ._scene import Scene
+from ._scene import Scene, receiver_count
 from ._types import LightTruth
 
 __all__ = ["recommend"]
@@ -85,7 +85,7 @@ def recommend(
     """
     if not isinstance(scene, Scene):
         raise BadTypeError(f"recommend takes an attenfit.Scene, got {type(scene).__name__}")
-    n_receivers = sum(_receiver_count(r) for r in scene.receivers)
+    n_receivers = receiver_count(scene.receivers)
     _progress.stage(f"ground truth: {len(scene.lights)} lights, up to {n_receivers} receivers each")
     truths = scene.ground_truth() if truths is None else tuple(truths)
     datas = [light_data(scene, t) for t in truths]
@@ -306,15 +306,6 @@ def _fit_family(
         [bool(r[1]) for r in results],
         [r[2] for r in results],
     )
-
-
-def _receiver_count(receivers: Any) -> int:
-    """How many receivers a receiver table makes (per light, for a distribution)."""
-    if receivers.kind == "plane":
-        return receivers.resolution**2
-    if receivers.kind == "points":
-        return len(receivers.points)
-    return receivers.n
 
 
 def _precision_problem(model: Family, d: np.ndarray, f: np.ndarray, precision: str) -> str | None:
