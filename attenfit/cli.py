@@ -15,7 +15,15 @@ import traceback
 from collections.abc import Sequence
 
 from . import _input, _progress
-from ._cli import _cache, _export, _families, _fit, _report, _scene, _truth
+from ._cli import (
+    _cmd_cache,
+    _cmd_export,
+    _cmd_families,
+    _cmd_fit,
+    _cmd_report,
+    _cmd_scene,
+    _cmd_truth,
+)
 from ._cli._common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_NOT_CONVERGED, EXIT_OK
 from ._errors import AttenfitError, OutputExistsError
 from ._version import __version__
@@ -62,7 +70,15 @@ def get_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="say nothing on stderr but errors (no progress, no summary line)",
     )
-    for verb in (_families, _truth, _fit, _report, _scene, _export, _cache):
+    for verb in (
+        _cmd_families,
+        _cmd_truth,
+        _cmd_fit,
+        _cmd_report,
+        _cmd_scene,
+        _cmd_export,
+        _cmd_cache,
+    ):
         verb.add_parser(sub, [common])
     return parser
 

@@ -2,19 +2,19 @@
 glslangValidator and spirv-opt, NVIDIA SASS through NVRTC and ptxas) of the form that ships
 (`compiled_cost`), the precision of that form in float32 and float16 (`precision`), operation
 counts and a shader cost estimated from the traced expression, measured throughput, and the
-Pareto front of cost against error. Implemented in `attenfit._shaders._compile`,
+Pareto front of cost against error. Implemented in `attenfit._shaders._compilers`,
 `_precision` and `_cost` (whose docstring gives the weights and their sources);
 docs/shaders.md.
 """
 
 from ._report import plot_cost_vs_error as plot_cost_vs_error
-from ._shaders._compile import Compiled as Compiled
-from ._shaders._compile import CompiledCost as CompiledCost
-from ._shaders._compile import CompilerError as CompilerError
-from ._shaders._compile import compiled_cost as compiled_cost
-from ._shaders._compile import compilers as compilers
-from ._shaders._compile import cost_method as cost_method
-from ._shaders._compile import structural_cost as structural_cost
+from ._shaders._compilers import Compiled as Compiled
+from ._shaders._compilers import CompiledCost as CompiledCost
+from ._shaders._compilers import CompilerError as CompilerError
+from ._shaders._compilers import compiled_cost as compiled_cost
+from ._shaders._compilers import compilers as compilers
+from ._shaders._compilers import cost_method as cost_method
+from ._shaders._compilers import structural_cost as structural_cost
 from ._shaders._cost import CATEGORIES as CATEGORIES
 from ._shaders._cost import SHADER_WEIGHTS as SHADER_WEIGHTS
 from ._shaders._cost import Cost as Cost

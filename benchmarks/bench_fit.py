@@ -33,7 +33,7 @@ import numpy as np
 jax.config.update("jax_enable_x64", True)
 
 import attenfit as af  # noqa: E402
-from attenfit._fit import _compile  # noqa: E402
+from attenfit._fit import _compiled as _compile  # noqa: E402
 
 N = 256
 TOL = 1e-8

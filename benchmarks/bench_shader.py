@@ -15,7 +15,7 @@ from __future__ import annotations
 import time
 
 import attenfit
-from attenfit._shaders._compile import compilers
+from attenfit._shaders._compilers import compilers
 from attenfit._shaders._engines import engine_table
 
 

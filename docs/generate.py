@@ -229,7 +229,7 @@ class SkipSection(Exception):
 
 
 def _compiled_rows():
-    from attenfit._shaders._compile import missing
+    from attenfit._shaders._compilers import missing
     from attenfit._shaders._engines import engine_table
 
     why = missing("spirv")
@@ -273,7 +273,7 @@ def spirv_costs(_: Inputs) -> str:
 
 def sass_costs(_: Inputs) -> str:
     """NVIDIA SASS instructions (MUFU apart) of the shader form, stable form and engine code."""
-    from attenfit._shaders._compile import missing
+    from attenfit._shaders._compilers import missing
 
     why = missing("sass")
     if why:

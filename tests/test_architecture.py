@@ -19,6 +19,8 @@ PACKAGE = Path(__file__).resolve().parent.parent / "attenfit"
 
 #: The stages, bottom to top. A module of stage k may import stages 0..k (its own included).
 STAGES = ("base", "curves", "truth", "fit", "shaders", "report", "scenes", "cli", "public")
+#: The base stage's modules (top-level private modules every stage may use).
+BASE = ("_errors", "_atomic", "_version", "_cache", "_progress", "_input", "_budget", "_float64")
 #: Longest module allowed, in lines.
 MAX_LINES = 600
 
@@ -29,7 +31,7 @@ def _stage(module: str) -> str:
     if len(parts) == 1:  # the package itself
         return "public"
     top = parts[1]
-    if top in ("_errors", "_atomic", "_version", "_cache", "_progress", "_input", "_budget"):
+    if top in BASE:
         return "base"
     if top.startswith("_") and top[1:] in STAGES:
         return top[1:]
@@ -96,6 +98,20 @@ def _imports(module: str, path: Path) -> set[str]:
 GRAPH = {m: _imports(m, p) for m, p in _modules().items()}
 
 
+def _packages_of(module: str) -> list[str]:
+    """The packages Python runs before `module` (its parents below `attenfit`)."""
+    parts = module.split(".")
+    return [".".join(parts[:k]) for k in range(2, len(parts))]
+
+
+#: GRAPH with what Python really runs: importing a module runs its packages' `__init__` first.
+RUNS = {
+    m: targets
+    | {p for t in targets for p in _packages_of(t) if not (m == p or m.startswith(p + "."))}
+    for m, targets in GRAPH.items()
+}
+
+
 @pytest.mark.parametrize("module", sorted(GRAPH))
 def test_a_stage_imports_only_stages_below_it(module):
     rank = STAGES.index(_stage(module))
@@ -111,7 +127,7 @@ def test_no_import_circles():
     def visit(m: str) -> None:
         state[m] = 1
         path.append(m)
-        for n in sorted(GRAPH[m]):
+        for n in sorted(RUNS[m]):
             # a package's __init__ re-exporting its own modules is not a circle with them
             if m.startswith(n + ".") and (PACKAGE.parent / Path(*n.split("."))).is_dir():
                 continue
@@ -126,6 +142,63 @@ def test_no_import_circles():
     for m in sorted(GRAPH):
         if m not in state:
             visit(m)
+
+
+def _is_private_stage_module(module: str) -> bool:
+    """A module inside a stage subpackage (`attenfit._report._plots`), not its interface."""
+    parts = module.split(".")
+    return len(parts) >= 3 and parts[1].startswith("_") and parts[2].startswith("_")
+
+
+@pytest.mark.parametrize("module", sorted(GRAPH))
+def test_a_stage_uses_another_only_through_its_interface(module):
+    """Across stages, a module imports the stage package (its `__init__`), never one of its
+    private modules. Public modules are their stage's own face and re-export from it."""
+    if _stage(module) == "public":
+        return
+    reached = sorted(
+        t for t in GRAPH[module] if _is_private_stage_module(t) and _stage(t) != _stage(module)
+    )
+    assert not reached, f"{module} imports private modules of other stages: {reached}"
+
+
+@pytest.mark.parametrize("module", sorted(m for m in GRAPH if _is_private_stage_module(m)))
+def test_no_module_imports_its_own_package_interface(module):
+    """A stage's modules import each other directly, never through the package `__init__`
+    that re-exports them (which is what makes circles through `__init__`)."""
+    path = _modules()[module]
+    package = module.rsplit(".", 1)[0]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom) and node.level:
+            base = module.split(".")[: -node.level]
+            stem = ".".join(base + ([node.module] if node.module else []))
+            if stem != package:
+                continue
+            for alias in node.names:
+                assert f"{stem}.{alias.name}" in GRAPH, (
+                    f"{module} line {node.lineno} imports {alias.name!r} from its own package "
+                    f"{package}; import it from the module that defines it"
+                )
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                assert alias.name != package, f"{module} imports its own package {package}"
+
+
+def test_module_names_say_one_thing():
+    """No private module repeats a stage's name for something else, and no two private
+    modules share a name (the reader of a traceback knows which one it is)."""
+    stems: dict[str, list[str]] = {}
+    for module in GRAPH:
+        last = module.rsplit(".", 1)[-1]
+        if module == "attenfit" or not last.startswith("_") or last.startswith("__"):
+            continue
+        if last[1:] in STAGES and module != f"attenfit.{last}":
+            pytest.fail(f"{module}: a module named after the stage {last[1:]!r}")
+        if module.count(".") >= 2:  # a stage's module
+            stems.setdefault(last, []).append(module)
+    repeated = {k: v for k, v in stems.items() if len(v) > 1}
+    assert not repeated, f"private modules sharing a name: {repeated}"
 
 
 @pytest.mark.parametrize("module", sorted(GRAPH))
@@ -240,7 +313,7 @@ def test_a_user_composes_a_family_from_the_public_parts():
 
 
 def test_the_cli_names_every_engine_without_importing_the_scene_stage():
-    from attenfit._cli._scene import ENGINE_NAMES
+    from attenfit._cli._cmd_scene import ENGINE_NAMES
     from attenfit._scenes._engine import ENGINES
 
     assert ENGINE_NAMES == tuple(ENGINES)

@@ -16,7 +16,7 @@ from attenfit._shaders._area_forms import (
     area_shader_form,
     evaluate_area_form,
 )
-from attenfit._shaders._compile import missing
+from attenfit._shaders._compilers import missing
 
 R = 0.3
 SPHERE_MODELS = ["snyder_sphere", "unreal_wrap", "godot_wrap", "hdrp_sphere", "mrp_sphere"]

@@ -7,7 +7,7 @@ import pytest
 
 import attenfit
 from attenfit import cost
-from attenfit._shaders import _compile
+from attenfit._shaders import _compilers as _compile
 
 BUILTIN = {getattr(attenfit.families, c).name for c in attenfit.families.__all__}
 FAMILIES = [n for n in attenfit.list_families() if n in BUILTIN]

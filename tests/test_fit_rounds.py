@@ -1,4 +1,4 @@
-"""A large batch is solved in two rounds (`attenfit._fit._compile._in_rounds`): the problems
+"""A large batch is solved in two rounds (`attenfit._fit._compiled._in_rounds`): the problems
 left unfinished after the first round's steps are solved again from their start. Each
 problem must come out as the one-round solve gives it (and as `fit` gives it), stragglers
 included.
@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 import attenfit as af
-from attenfit._fit import _compile
+from attenfit._fit import _compiled as _compile
 
 
 def test_two_rounds_give_the_one_round_results(monkeypatch):

@@ -335,7 +335,7 @@ def test_report_into_an_unwritable_place_is_refused_before_work(tmp_path, capsys
 
 
 def test_internal_error_is_a_bug_report(monkeypatch, capsys):
-    from attenfit._cli import _families
+    from attenfit._cli import _cmd_families as _families
 
     def boom(args):
         raise ZeroDivisionError("deliberately")

@@ -485,3 +485,17 @@ def test_reach_zero_check_names_the_value_at_the_range():
     assert _check_reaches_zero(window(r_max=3.5), 3.0) == (
         f"does not reach 0 at the range 3 (f = {expected:.3g} there)"
     )
+
+
+def test_the_scene_stage_sets_the_precision_it_needs(tmp_path):
+    """`recommend` gives the command line's answer whatever the caller's `jax_enable_x64`
+    (the suite's conftest turns it on; a user's script may not)."""
+    import jax
+
+    scene = Scene.load(_write(tmp_path, GOOD))
+    scene = dataclasses.replace(scene, families=("inverse_square", "yuksel"))
+    with jax.enable_x64(False):
+        off = attenfit.recommend(scene).to_dict()
+        assert not jax.config.jax_enable_x64  # the caller's setting is left as it was
+    on = attenfit.recommend(scene).to_dict()
+    assert off == on

@@ -37,8 +37,8 @@ from jaxtyping import ArrayLike, Float
 
 from .._curves import AreaModel, Family
 from .._errors import BadTypeError, BadValueError
-from ._area import dataset_problem
-from ._compile import compiled_solve
+from ._area_inputs import dataset_problem
+from ._compiled import compiled_solve
 from ._result import FitResult, FitResults, make_result
 from ._spec import SHAPED_SPECS, spec_of
 from ._validate import (
@@ -203,7 +203,7 @@ def fit_dataset(
 ) -> FitResult:
     """Fit the point-light model `E = weight * f(d)` to a dataset's irradiance (an area
     model: `E = I * model(area_inputs)`, receivers with E = 0 left out unless the loss is
-    absolute, `attenfit._fit._area.dataset_problem`).
+    absolute, `attenfit._fit._area_inputs.dataset_problem`).
 
     `weight = I g max(0, n.l)` and `d` come from `dataset.weight()` and
     `dataset.distance()` (the emitter's `point_light`); receivers with weight 0 (facing

@@ -40,7 +40,7 @@ def validate_data(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """`d`, `target` and `weights` checked; `rows`: an area model's inputs (`_area`) as `d`."""
     if rows:
-        from ._area import stack_inputs
+        from ._area_inputs import stack_inputs
 
         x = stack_inputs(d, ndim)
         shape = np.shape(target)

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from .._curves import get_area_model, list_area_models
-from .._shaders._area_forms import area_compiled_cost
+from .._shaders import area_compiled_cost
 from .._truth import area_irradiance
 from ._decide import Candidate, judge, register_candidate_source
 from ._metrics import receiver_errors

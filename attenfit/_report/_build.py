@@ -35,15 +35,15 @@ from ._configs import (
     emitter_config,
     emitter_kind,
 )
+from ._document import Report
 from ._evaluate import evaluate_row, failed_row, family_costs, truth_interpolator
 from ._findings import seed_findings
 from ._fit_all import fit_all
 from ._published import published_params, range_of, range_params, shape_free
-from ._report import Report
 
 
 # ============================================================================ building
-def _resolve_families(families: Sequence[str | type] | None) -> list[type]:
+def resolve_families(families: Sequence[str | type] | None) -> list[type]:
 
     if families is None:
         return [get_family(n) for n in list_families()]
@@ -62,7 +62,7 @@ def _resolve_families(families: Sequence[str | type] | None) -> list[type]:
     return out
 
 
-def _resolve_emitters(emitters: Sequence[Any] | Mapping[str, Any] | None) -> dict[str, Any]:
+def resolve_emitters(emitters: Sequence[Any] | Mapping[str, Any] | None) -> dict[str, Any]:
     if emitters is None:
         return default_emitters()
     if isinstance(emitters, Mapping):
@@ -133,7 +133,7 @@ def build_report(
 
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
-    classes = _resolve_families(families)
+    classes = resolve_families(families)
     if isinstance(datasets, Mapping):
         ds_items = list(datasets.items())
     else:
@@ -146,7 +146,7 @@ def build_report(
         check_dataset(name, ds)
     if int(sweep_n) < 8 or int(plane_px) < 8:
         raise BadValueError(f"sweep_n and plane_px must be >= 8, got {sweep_n} and {plane_px}")
-    n_configs = len(_resolve_emitters(emitters)) + len(ds_items)
+    n_configs = len(resolve_emitters(emitters)) + len(ds_items)
     _budget.check(
         BYTES_BASE + n_configs * BYTES_PER_SAMPLE * (int(plane_px) ** 2 + int(sweep_n)),
         f"a report of {n_configs} configurations with {plane_px} x {plane_px} planes and "
@@ -156,7 +156,7 @@ def build_report(
     timings: dict[str, float] = {}
     configs: list[Config] = []
     with jax.enable_x64(True):
-        ems = _as_float64(_resolve_emitters(emitters))
+        ems = _as_float64(resolve_emitters(emitters))
         t = time.perf_counter()
         for name in ems:
             _check_name(name)

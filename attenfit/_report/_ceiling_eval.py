@@ -222,7 +222,7 @@ def family_costs() -> dict[str, float]:
     """The compiled cost of `PointLight(family)` for each registered family (its shader form
     times `g max(0, n.l)`, generic parameters): the distance curves on the cost axis."""
     from .._curves import get_family, list_families
-    from .._shaders._area_forms import area_compiled_cost
+    from .._shaders import area_compiled_cost
 
     out = {}
     for name in list_families():
@@ -240,7 +240,7 @@ def ceiling_table(
     possible f(d)) and `models`: per area model (shipped, and fitted where `fit_on` names the
     configuration) its `errors`, `cost` (SPIR-V instructions of its shader form, or the
     estimate), `cost_label`, `fitted` and `params`."""
-    from .._shaders._area_forms import area_compiled_cost
+    from .._shaders import area_compiled_cost
 
     costs: dict[str, Any] = {}
 

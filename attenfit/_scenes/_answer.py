@@ -10,11 +10,12 @@ from pathlib import Path
 from typing import Any
 
 from .. import _progress
+from .._float64 import in_float64
+from ._advice import Recommendation
 from ._choices import LightChoice, choices_markdown, light_choices, plot_choices
 from ._files import ImportedScene, load_mesh_scene
-from ._fits import light_data
+from ._light_fits import light_data
 from ._recommend import recommend
-from ._recommendation import Recommendation
 
 __all__ = ["FileAnswer", "answer_file"]
 
@@ -98,11 +99,13 @@ class FileAnswer:
         return write_back(self.imported, self.choices, out, force=force)
 
 
+@in_float64
 def answer_file(path: str | os.PathLike, *, measure: bool = False, **options: Any) -> FileAnswer:
     """Read the USD or glTF scene `path` and answer it per light.
 
     `options` are those of `load_mesh_scene` (side, tolerance, precision, threshold,
-    samples, radius, engine, strict, seed, notice). Needs `jax_enable_x64` (the CLI sets it).
+    samples, radius, engine, strict, seed, notice). Computed in float64 whatever the caller's
+    `jax_enable_x64`.
     """
     imported = load_mesh_scene(path, **options)
     scene = imported.scene

@@ -28,10 +28,10 @@ import numpy as np
 
 from .._curves import Family, get_family
 from .._errors import AttenfitError
+from ._advice import Candidate, Recommendation, pct
 from ._engine import Engine
 from ._files import ImportedScene
-from ._fits import LightData, _range_param, fit_group, fit_plan, judged_errors, shade
-from ._recommendation import Candidate, Recommendation, pct
+from ._light_fits import LightData, _range_param, fit_group, fit_plan, judged_errors, shade
 
 __all__ = ["LightChoice", "light_choices", "range_trade"]
 

@@ -6,7 +6,7 @@ The point-light model `E = I g f(d) max(0, n.l)` has an angular error no `f(d)` 
 error (`|E_model - E_true| / max(E_true, error_floor * E_peak)`), fits the ones with free
 parameters to the scene (one parameter set for all its lights: a wrap amount is
 dimensionless), and recommends the cheapest one within tolerance by the compiled cost of
-its shader form (`attenfit._shaders._area_forms`), saying why: the error of the light's
+its shader form (`attenfit._shaders.area_function_source`), saying why: the error of the light's
 exact facing curve `f*(d)` (the best any `f(d)` can do per distance) and where it is.
 Spot lights are not escalated (an area model has no spot profile).
 """
@@ -24,11 +24,10 @@ import numpy as np
 from .._curves import AreaModel, get_area_model, list_area_models
 from .._errors import AttenfitError
 from .._fit import fit
-from .._shaders import LANGUAGES
-from .._shaders._area_forms import area_compiled_cost, area_function_source
+from .._shaders import LANGUAGES, area_compiled_cost, area_function_source
 from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep
-from ._fits import LightData
-from ._recommendation import pct
+from ._advice import pct
+from ._light_fits import LightData
 from ._scene import Scene
 from ._types import LightTruth
 

@@ -49,9 +49,18 @@ import numpy as np
 from .. import _progress
 from .._curves import Family, get_family, list_families
 from .._errors import AttenfitError, BadTypeError, BadValueError
+from .._float64 import in_float64
 from .._shaders import LANGUAGES, export, measure_throughput, structural_cost
-from ._fits import LightData, fit_group, fit_plan, judged_errors, light_data, shade, spot_variants
-from ._recommendation import Candidate, Recommendation, pct
+from ._advice import Candidate, Recommendation, pct
+from ._light_fits import (
+    LightData,
+    fit_group,
+    fit_plan,
+    judged_errors,
+    light_data,
+    shade,
+    spot_variants,
+)
 from ._scene import Scene, receiver_count
 from ._types import LightTruth
 
@@ -73,6 +82,7 @@ def check_reaches_zero(model: Family, R: float) -> str | None:
     return f"does not reach 0 at the range {R:g} (f = {where:.3g} there)"
 
 
+@in_float64
 def recommend(
     scene: Scene, *, measure: bool = False, truths: Sequence[LightTruth] | None = None
 ) -> Recommendation:

@@ -28,7 +28,7 @@ import numpy as np
 from jaxtyping import Float
 
 from .._errors import BadValueError
-from ._truth import inside_light
+from ._lighting import inside_light
 from ._types import SceneLight
 
 __all__ = ["Mesh", "sample_receivers", "transform_normals", "triangle_areas"]

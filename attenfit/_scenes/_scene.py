@@ -8,8 +8,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from .. import _budget
+from .._float64 import in_float64
+from ._lighting import light_truth
 from ._toml import parse_scene, read_toml
-from ._truth import light_truth
 from ._types import (
     LightTruth,
     PlaneReceivers,
@@ -83,6 +84,7 @@ class Scene:
         return out
 
     # ------------------------------------------------------------------ ground truth
+    @in_float64
     def ground_truth(self) -> tuple[LightTruth, ...]:
         """Exact irradiance of each light at the scene's receivers, and nothing else.
 

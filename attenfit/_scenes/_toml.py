@@ -16,7 +16,7 @@ from .._curves import list_families
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._input import LIMITS, load_toml, read_text
 from .._truth import DiskEmitter
-from ._truth import inside_light
+from ._lighting import inside_light
 from ._types import (
     LIGHT_EXTRA,
     LIGHT_KINDS,

@@ -7,13 +7,15 @@ estimate; `_compile`: real compilers) and how precise they are in float16 and fl
 Imports the curves stage (and the fitting stage's results, by duck typing) and nothing above.
 """
 
-from ._compile import Compiled as Compiled
-from ._compile import CompiledCost as CompiledCost
-from ._compile import CompilerError as CompilerError
-from ._compile import compiled_cost as compiled_cost
-from ._compile import compilers as compilers
-from ._compile import cost_method as cost_method
-from ._compile import structural_cost as structural_cost
+from ._area_forms import area_compiled_cost as area_compiled_cost
+from ._area_forms import area_function_source as area_function_source
+from ._compilers import Compiled as Compiled
+from ._compilers import CompiledCost as CompiledCost
+from ._compilers import CompilerError as CompilerError
+from ._compilers import compiled_cost as compiled_cost
+from ._compilers import compilers as compilers
+from ._compilers import cost_method as cost_method
+from ._compilers import structural_cost as structural_cost
 from ._cost import CATEGORIES as CATEGORIES
 from ._cost import SHADER_WEIGHTS as SHADER_WEIGHTS
 from ._cost import Cost as Cost

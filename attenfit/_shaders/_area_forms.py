@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from .._curves import AreaModel, PointLight
-from ._compile import Compiled, cost_method, spirv_counts
+from ._compilers import Compiled, cost_method, spirv_counts
 from ._forms import _Lets, shader_form
 from ._ir import Expr, Ref, ShaderForm, evaluate_form, fn
 from ._print import print_form

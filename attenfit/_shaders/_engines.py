@@ -174,7 +174,7 @@ def engine_table(families: Mapping[str, object]) -> list[dict[str, object]]:
     """Per family (name -> instance): SPIR-V and SASS counts of its shader form, its stable
     form and, where an engine ships one, the engine's snippet, and the SPIR-V ratio of the
     shader form to the engine's code. Counts are None where a compiler is not installed."""
-    from ._compile import compiled_cost, sass_counts, spirv_counts
+    from ._compilers import compiled_cost, sass_counts, spirv_counts
     from ._export import scalar_params
 
     rows: list[dict[str, object]] = []

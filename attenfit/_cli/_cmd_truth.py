@@ -9,7 +9,7 @@ import sys
 
 from .. import _progress
 from .._errors import AttenfitError, BadValueError
-from ._common import EXIT_OK
+from ._common import EXIT_OK, configuration_emitter
 
 
 def add_parser(sub, parents: list) -> None:
@@ -101,25 +101,15 @@ def _configuration_dataset(args: argparse.Namespace, dtype: str):
         import jax
 
         jax.config.update("jax_enable_x64", True)
-    from .._truth import (
-        CapsuleEmitter,
-        DiskEmitter,
-        SphereEmitter,
-        facing_sweep,
-        plane_receivers,
-        random_receivers,
-    )
+    from .._truth import facing_sweep, plane_receivers, random_receivers
 
     r = args.radius
-    if args.emitter == "sphere":
-        emitter = SphereEmitter([0.0, 0.0, 0.0], r, args.intensity)
-    elif args.emitter == "disk":
-        emitter = DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], r, args.intensity, args.two_sided)
-    else:
-        half = (4 * r if args.length is None else args.length) / 2
-        if half < 0:
-            raise BadValueError(f"--length must be >= 0, got {args.length}")
-        emitter = CapsuleEmitter([-half, 0.0, 0.0], [half, 0.0, 0.0], r, args.intensity)
+    half = (4 * r if args.length is None else args.length) / 2
+    if args.emitter == "capsule" and half < 0:
+        raise BadValueError(f"--length must be >= 0, got {args.length}")
+    emitter = configuration_emitter(
+        args.emitter, r, args.intensity, two_sided=args.two_sided, half_length=half
+    )
     if args.range is None:
         lo, hi = (1e-3 * r if args.emitter == "disk" else 1.001 * r), 1000 * r
     else:

@@ -369,7 +369,7 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
             a.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
         ax.plot([], [], color="k", ls="--", lw=1, label=f"tolerance {pct(rec.tolerance)}")
         ax.set_xscale("log")
-        from .._report._plots import plain_log_ticks
+        from .._report import plain_log_ticks
 
         for a in (ax, ax_spot):
             if a is not None:

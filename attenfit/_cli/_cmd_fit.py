@@ -8,7 +8,7 @@ import sys
 
 from .. import _progress
 from .._errors import BadValueError
-from ._common import EXIT_NOT_CONVERGED, EXIT_OK
+from ._common import EXIT_NOT_CONVERGED, EXIT_OK, configuration_emitter
 
 
 def add_parser(sub, parents: list) -> None:
@@ -55,7 +55,7 @@ def _fit_configuration(args: argparse.Namespace):
     """The dataset of `--data`, or the facing sweep `--emitter` describes; and its description."""
     import numpy as np
 
-    from .._truth import Dataset, DiskEmitter, SphereEmitter, facing_sweep
+    from .._truth import Dataset, facing_sweep
 
     if args.data is not None:
         return Dataset.load(args.data), f"dataset {args.data}"
@@ -78,11 +78,7 @@ def _fit_configuration(args: argparse.Namespace):
     if args.n < 4:
         raise BadValueError(f"--n must be at least 4, got {args.n}")
     desc = f"{args.emitter} of radius {r:g}, facing receivers at d in [{lo:g}, {hi:g}] ({args.n} samples)"
-    emitter = (
-        SphereEmitter([0.0, 0.0, 0.0], r)
-        if args.emitter == "sphere"
-        else DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], r)
-    )
+    emitter = configuration_emitter(args.emitter, r)
     return facing_sweep(emitter, lo, hi, n=args.n), desc
 
 

@@ -84,11 +84,11 @@ def _run_report(args: argparse.Namespace) -> int:
         )
     witness = None
     if not args.no_mitsuba:  # once the options are known to be good (no thread left behind)
-        from .._report._build import _resolve_emitters, _resolve_families
+        from .._report import resolve_emitters, resolve_families
 
-        _resolve_families(args.families)
+        resolve_families(args.families)
         if min(args.sweep_n, args.plane_px) >= 8:
-            witness = _Witness(_resolve_emitters(args.emitters))
+            witness = _Witness(resolve_emitters(args.emitters))
     rep = build_report(
         families=args.families,
         emitters=args.emitters,
@@ -146,7 +146,7 @@ class _Witness:
         """The report's witness section, or None (with a notice) without data_gen or Mitsuba."""
         import sys
 
-        from .._report._witness import witness_section
+        from .._report import witness_section
 
         if self.thread.is_alive():
             _progress.stage("waiting for the Mitsuba witness")

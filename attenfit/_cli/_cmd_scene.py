@@ -78,8 +78,7 @@ def add_parser(sub, parents: list) -> None:
 def _run_scene(args: argparse.Namespace) -> int:
     from .._atomic import check_output_path
     from .._fit import enable_persistent_cache
-    from .._scenes import Scene, recommend
-    from .._scenes._files import engine_scene, is_mesh_scene
+    from .._scenes import Scene, engine_scene, is_mesh_scene, recommend
 
     mesh = is_mesh_scene(args.file)
     if not mesh:
@@ -103,7 +102,7 @@ def _run_scene(args: argparse.Namespace) -> int:
         return _run_file(args)
     scene = Scene.load(args.file)
     if args.engine is not None:
-        from .._scenes._engine import get_engine
+        from .._scenes import get_engine
 
         scene = engine_scene(scene, get_engine(args.engine))
     rec = recommend(scene, measure=args.measure)
@@ -120,7 +119,7 @@ def _run_scene(args: argparse.Namespace) -> int:
 
 
 def _run_file(args: argparse.Namespace) -> int:
-    from .._scenes._answer import answer_file
+    from .._scenes import answer_file
 
     ans = answer_file(
         args.file,
