@@ -1,0 +1,6 @@
+"""Stage 5, the judge: how far a model is from the truth on a set of receivers, and which of
+several candidate models to name (`rank`: one tie-break for every verdict).
+
+Imports the curves, truth, fitting and shaders stages, and nothing above. The report and the
+scene stage decide through it.
+"""
