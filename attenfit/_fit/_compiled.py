@@ -154,7 +154,12 @@ class _Persistent:
     def _program(self, args, shapes) -> Callable:
         if self.key is None:
             return self.jitted
-        key = f"{self.key}|{shapes[0]}|{shapes[1]}|x64={jax.config.jax_enable_x64}"
+        # an exported program runs only on the platform it was exported for (a cache shared
+        # by a GPU and a CPU process must keep both)
+        key = (
+            f"{self.key}|{shapes[0]}|{shapes[1]}|x64={jax.config.jax_enable_x64}"
+            f"|{jax.default_backend()}"
+        )
         blob = _cache.read("solve", key)
         if blob is not None:
             try:
