@@ -366,31 +366,25 @@ def test_the_decision_table_picks_the_cheapest_within_tolerance(report):
     costs = {"inverse_square": 2, "yuksel": 4, "yuksel_adhoc": 2, "disk_facing": 2,
              "unreal_window": 8, "just_cause_2": 6, "gltf_range": 7}  # fmt: skip
     rep = dataclasses.replace(report, costs={k: {"shader_cost": v} for k, v in costs.items()})
-    saved = list(_decide._SOURCES)  # the area models; the distance curves alone first
-    _decide._SOURCES.clear()
-    try:
-        entries = rep.decisions()
-        assert len(entries) == 2 * 3 * len(_decide.TOLERANCES)
-        far = {e["tolerance"]: e for e in entries if e["config"] == "sphere" and e["band"] == "far"}
-        # beyond 10 r a sphere is a point light but for the horizon of tilted receivers, which
-        # clips less than 1% of a facing receiver's irradiance there: inverse-square, cost 2
-        assert all(e["model"] == "inverse_square" and e["cost"] == 2 for e in far.values())
-        assert far[0.01]["error"] < 0.01
-        md = rep.decision_markdown()
-        assert md.count("\n| sphere |") == 3 and "| 1% to 20% | `inverse_square` published" in md
+    entries = _decide.decide(rep, sources=())  # the distance curves alone first
+    assert len(entries) == 2 * 3 * len(_decide.TOLERANCES)
+    far = {e["tolerance"]: e for e in entries if e["config"] == "sphere" and e["band"] == "far"}
+    # beyond 10 r a sphere is a point light but for the horizon of tilted receivers, which
+    # clips less than 1% of a facing receiver's irradiance there: inverse-square, cost 2
+    assert all(e["model"] == "inverse_square" and e["cost"] == 2 for e in far.values())
+    assert far[0.01]["error"] < 0.01
+    md = _decide.decision_markdown(entries)
+    assert md.count("\n| sphere |") == 3 and "| 1% to 20% | `inverse_square` published" in md
 
-        # a registered source (an area model) fills the cells no distance curve meets
-        area = _decide.Candidate(
-            model="area_stub", mode="fitted", params="r′ = r", cost=50.0,
-            errors={"contact": 0.0, "near": 0.0, "far": 0.0},
-            worst={"contact": None, "near": None, "far": None}, kind="area model",
-        )  # fmt: skip
-        none_before = sum(e["model"] is None for e in entries)
-        assert none_before > 0  # near a disk no distance curve is within 1% on the floor
-        _decide.register_candidate_source(lambda cfg, rep: [area])
-        after = rep.decisions()
-    finally:
-        _decide._SOURCES[:] = saved
+    # a source of other candidates (an area model) fills the cells no distance curve meets
+    area = _decide.Candidate(
+        model="area_stub", mode="fitted", params="r′ = r", cost=50.0,
+        errors={"contact": 0.0, "near": 0.0, "far": 0.0},
+        worst={"contact": None, "near": None, "far": None}, kind="area model",
+    )  # fmt: skip
+    none_before = sum(e["model"] is None for e in entries)
+    assert none_before > 0  # near a disk no distance curve is within 1% on the floor
+    after = _decide.decide(rep, sources=[lambda cfg, rep: [area]])
     assert sum(e["model"] is None for e in after) == 0
     assert sum(e["model"] == "area_stub" for e in after) == none_before
     assert "(area model)" in decision_markdown_of(after)

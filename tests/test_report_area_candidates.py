@@ -7,6 +7,8 @@ for one light must not be judged on another, and a candidate's errors must be th
 
 from __future__ import annotations
 
+import inspect
+
 import jax
 import numpy as np
 
@@ -26,8 +28,9 @@ def _config(kind: str):
         return emitter_config(kind, em, 32, 8)
 
 
-def test_area_models_are_a_registered_source():
-    assert area_candidates in _decide._SOURCES
+def test_area_models_are_the_decision_tables_other_source():
+    assert _decide.SOURCES == (area_candidates,)
+    assert inspect.signature(_decide.decide).parameters["sources"].default is _decide.SOURCES
 
 
 def test_exact_sphere_is_exact_on_every_set_and_band():

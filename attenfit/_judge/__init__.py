@@ -4,3 +4,7 @@ several candidate models to name (`rank`: one tie-break for every verdict).
 Imports the curves, truth, fitting and shaders stages, and nothing above. The report and the
 scene stage decide through it.
 """
+
+from ._rank import Contender as Contender
+from ._rank import Ranking as Ranking
+from ._rank import rank as rank

@@ -6,7 +6,6 @@ parameters (`_published`), the result rows (`_evaluate`), the combined fit
 Imports the curves, truth, fitting and shaders stages, and nothing above.
 """
 
-from . import _area_candidates  # noqa: F401 (area models join the decision table)
 from ._build import build_report as build_report
 from ._build import resolve_emitters as resolve_emitters
 from ._build import resolve_families as resolve_families

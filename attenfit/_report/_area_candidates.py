@@ -1,7 +1,7 @@
 """Area-light models as candidates of the decision table (docs/area.md, docs/report.md).
 
-Where no distance curve meets a tolerance, `_decide.decide` asks its registered sources for
-more candidates. This one judges every area model made for the configuration's light (a
+Where no distance curve meets a tolerance, `_decide.decide` asks its sources (`_decide.SOURCES`,
+this one by default) for more candidates. This one judges every area model made for the configuration's light (a
 sphere's models on a sphere, a disk's on a disk), as published, on the same three receiver
 sets and with the same errors (`_metrics.receiver_errors`) as the distance curves; its cost
 is the compiled cost of its shader form (`attenfit._shaders.area_compiled_cost`).
@@ -17,7 +17,7 @@ import numpy as np
 from .._curves import get_area_model, list_area_models
 from .._shaders import area_compiled_cost
 from .._truth import area_irradiance
-from ._decide import Candidate, judge, register_candidate_source
+from ._candidates import Candidate, judge
 from ._metrics import receiver_errors
 
 
@@ -69,9 +69,7 @@ def area_candidates(cfg: Any, report: Any) -> list[Candidate]:
                 worst=worst,
                 kind="area model",
                 set_errors=per_set,
+                n_params=len(model.params()),
             )
         )
     return out
-
-
-register_candidate_source(area_candidates)

@@ -26,6 +26,7 @@ import jax
 import numpy as np
 
 from .._curves import AreaModel, PointLight, get_area_model, list_area_models
+from .._judge import Contender, rank
 from .._truth import (
     CapsuleEmitter,
     DiskEmitter,
@@ -283,6 +284,19 @@ def ceiling_table(
 
 
 def cheapest_within(row: dict[str, Any], tol: float) -> dict[str, Any] | None:
-    """The cheapest model of a `ceiling_table` row within `tol` max relative error."""
-    ok = [m for m in row["models"] if m["max_rel"] <= tol]
-    return min(ok, key=lambda m: (m["cost"], m["max_rel"])) if ok else None
+    """The cheapest model of a `ceiling_table` row within `tol` max relative error (ranked
+    by `attenfit._judge.rank`, the tie-break of every verdict); None when none is."""
+    best = rank(
+        (
+            Contender(
+                m["name"] + (" (fitted)" if m["fitted"] else ""),
+                m["max_rel"],
+                m["cost"],
+                len(m["params"]),
+                item=m,
+            )
+            for m in row["models"]
+        ),
+        tol,
+    ).best
+    return None if best is None else best.item

@@ -5,14 +5,14 @@ contact to r, r to 10 r, beyond 10 r) and each tolerance in `TOLERANCES`, the ch
 (by the compiled shader cost the report measured) whose largest error on every receiver set
 (facing, floor, random; `_configs.Receivers`) in that band is within the tolerance. The
 candidates are every family's result rows, as published and fitted; a windowed curve
-qualifies only for the bands its range/2 covers (beyond it a window is judged off by
-design). Where no distance curve meets a tolerance, candidates from the sources registered
-with `register_candidate_source` (e.g. area-light models) are tried; nothing else changes.
+qualifies only for bands its range/2 covers (beyond it a window is judged off by design).
+Where no distance curve meets a tolerance, the candidates of `sources` (by default the area
+models, `_area_candidates.area_candidates`) are tried. Every cell is ranked by
+`attenfit._judge.rank`: one tie-break, and a closest chosen among every model class.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
@@ -20,51 +20,18 @@ from typing import Any
 import numpy as np
 
 from .._curves import get_family
+from .._judge import Ranking, rank
+from ._area_candidates import area_candidates
+from ._candidates import SET_LABELS, Candidate, judge
+from ._candidates import SETS as SETS  # the summary's order of the sets, as before
 from ._markdown import fmt_num, fmt_pct, md_row
 from ._metrics import GAP_BAND_LABELS, GAP_BANDS
 
 #: The tolerances of the decision table (largest |error| on the receivers that matter).
 TOLERANCES: tuple[float, ...] = (0.01, 0.05, 0.2)
-#: The receiver sets every model is judged on, in the order the tables show them.
-SETS: tuple[str, ...] = ("facing", "floor", "random")
-SET_LABELS: Mapping[str, str] = {
-    "facing": "facing sweep",
-    "floor": "floor",
-    "random": "random orientations",
-}
-
-
-@dataclasses.dataclass(frozen=True)
-class Candidate:
-    """A model the decision table may pick for one configuration.
-
-    `errors[band]` is its largest |error| over the receivers of that band (None: not judged
-    there), `worst[band]` the (set, d / r) of that error; `params` its parameters as a
-    function of the light's radius, in words; `cost` its compiled cost (None: unknown)."""
-
-    model: str
-    mode: str
-    params: str
-    cost: float | None
-    errors: Mapping[str, float | None]
-    worst: Mapping[str, tuple[str, float] | None]
-    kind: str = "distance curve"
-    #: Per receiver set, the largest |error| per band (what `errors` is the maximum of).
-    set_errors: Mapping[str, Mapping[str, float | None]] = dataclasses.field(default_factory=dict)
-
-
-#: Extra candidate sources: `fn(config, report) -> iterable of Candidate` (area models).
-_SOURCES: list[Callable[[Any, Any], Iterable[Candidate]]] = []
-
-
-def register_candidate_source(fn: Callable[[Any, Any], Iterable[Candidate]]) -> None:
-    """Add a source of candidates (e.g. area-light models) to the decision table.
-
-    `fn(config, report)` returns `Candidate`s judged on `config.receivers` (the same
-    `_metrics.receiver_errors` bands); they are tried only where no distance curve meets a
-    tolerance, and shown with their `kind`."""
-    if fn not in _SOURCES:
-        _SOURCES.append(fn)
+#: Where the candidates of the cells no distance curve meets come from:
+#: `fn(config, report) -> iterable of Candidate`, judged on `config.receivers`.
+SOURCES: tuple[Callable[[Any, Any], Iterable[Candidate]], ...] = (area_candidates,)
 
 
 # ============================================================================ parameters in r
@@ -117,38 +84,6 @@ def params_in_r(
 
 
 # ============================================================================ candidates
-def judge(rx: Mapping[str, Any]) -> tuple[dict, dict, dict]:
-    """`(errors, worst, set_errors)` of a `Candidate` from its `_metrics.receiver_errors`
-    per receiver set: per band, the largest |error| over the sets and where it is."""
-    errors: dict[str, float | None] = {}
-    worst: dict[str, tuple[str, float] | None] = {}
-    per_set = {
-        s: {
-            b: (st or {}).get("max_abs") for b, st in ((rx.get(s) or {}).get("bands") or {}).items()
-        }
-        for s in SETS
-    }
-    for band in GAP_BANDS:
-        best, where = None, None
-        judged = False
-        for s in SETS:
-            st = ((rx.get(s) or {}).get("bands") or {}).get(band) or {}
-            if not st.get("n"):
-                continue
-            judged = True
-            v = st.get("max_abs")
-            if v is None:
-                continue
-            if best is None or v > best:
-                best, where = v, (s, st.get("worst_at"))
-        covers = (rx.get("facing") or {}).get("covers")
-        if covers is not None and band not in covers:
-            judged = False  # a window whose range/2 ends inside the band
-        errors[band] = best if judged else None
-        worst[band] = where if judged else None
-    return errors, worst, per_set
-
-
 def _row_candidate(report, row: Mapping[str, Any], r: float, absolute: Sequence[str]):
     errors, worst, per_set = judge(row.get("receivers") or {})
     cost = (report.costs.get(row["family"]) or {}).get("shader_cost")
@@ -160,6 +95,7 @@ def _row_candidate(report, row: Mapping[str, Any], r: float, absolute: Sequence[
         errors=errors,
         worst=worst,
         set_errors=per_set,
+        n_params=len(row.get("params") or {}),
     )
 
 
@@ -193,10 +129,6 @@ def candidates(report, cfg) -> list[Candidate]:
     return out
 
 
-def _key(c: Candidate, band: str):
-    return (math.inf if c.cost is None else c.cost, c.errors[band], c.mode != "published")
-
-
 def _where(c: Candidate, band: str) -> str:
     w = c.worst.get(band)
     if not w:
@@ -205,12 +137,22 @@ def _where(c: Candidate, band: str) -> str:
     return f" on the {SET_LABELS.get(s, s)} at d = {x:.3g} r" if x is not None else f" on the {s}"
 
 
-def decide(report) -> list[dict[str, Any]]:
+def rank_band(cands: Iterable[Candidate], band: str, tol: float) -> Ranking[Candidate]:
+    """The candidates judged in `band`, ranked at tolerance `tol` (`attenfit._judge.rank`:
+    within it cheapest first, and the closest of every model class among them)."""
+    return rank((c.contender(band) for c in cands if c.errors.get(band) is not None), tol)
+
+
+def decide(
+    report, sources: Sequence[Callable[[Any, Any], Iterable[Candidate]]] = SOURCES
+) -> list[dict[str, Any]]:
     """The decision table's entries: one per configuration with receivers x band x tolerance.
 
     Each entry: `config`, `kind`, `band`, `tolerance`, `model`, `mode`, `params`, `error`,
     `cost`, `why` (one sentence), `model_kind`; `model` None where nothing meets the
-    tolerance (then `error` and `why` are about the best there is)."""
+    tolerance (then `best`, `error` and `why` are about the closest, of every model class).
+    `sources` give the candidates tried where no distance curve meets a tolerance (`SOURCES`:
+    the area models)."""
     out = []
     for cfg in report.configs:
         if not cfg.receivers:
@@ -222,20 +164,11 @@ def decide(report) -> list[dict[str, Any]]:
             if not judged:
                 continue
             for tol in TOLERANCES:
-                ok = sorted(
-                    (c for c in judged if c.errors[band] <= tol), key=lambda c: _key(c, band)
-                )
-                if not ok:
+                ranking = rank_band(judged, band, tol)
+                if ranking.best is None:
                     if extra is None:
-                        extra = [x for fn in _SOURCES for x in fn(cfg, report)]
-                    ok = sorted(
-                        (
-                            c
-                            for c in extra
-                            if c.errors.get(band) is not None and c.errors[band] <= tol
-                        ),
-                        key=lambda c: _key(c, band),
-                    )
+                        extra = [x for fn in sources for x in fn(cfg, report)]
+                    ranking = rank_band([*judged, *extra], band, tol)
                 entry = {
                     "config": cfg.name,
                     "kind": cfg.kind,
@@ -243,73 +176,83 @@ def decide(report) -> list[dict[str, Any]]:
                     "band": band,
                     "tolerance": tol,
                 }
-                if ok:
-                    best = ok[0]
-                    cheaper = [
-                        c
-                        for c in judged
-                        if c.cost is not None and best.cost is not None and c.cost < best.cost
-                    ]
-                    if cheaper:
-                        near = min(cheaper, key=lambda c: c.errors[band])
-                        why = (
-                            f"The cheapest within {fmt_pct(tol)}; the best cheaper curve, "
-                            f"`{near.model}` {near.mode} (cost {fmt_num(near.cost)}), is "
-                            f"{fmt_pct(near.errors[band])} off{_where(near, band)}."
-                        )
-                    elif best.cost is not None:
-                        why = (
-                            "The cheapest curve of all; its largest error is"
-                            f"{_where(best, band) or ' here'}."
-                        )
-                    else:
-                        why = f"Cost not measured: the smallest error{_where(best, band)}."
-                    if best.mode == "fitted":
-                        why += " Parameters fitted on the facing sweep."
-                    entry.update(
-                        model=best.model,
-                        mode=best.mode,
-                        model_kind=best.kind,
-                        params=best.params,
-                        error=best.errors.get(band),
-                        cost=best.cost,
-                        why=why,
-                    )
+                if ranking.best is not None:
+                    entry.update(_chosen(ranking.best.item, judged, band, tol))
                 else:
-                    top = min(  # errors equal to 3 digits: the cheaper
-                        judged,
-                        key=lambda c: (float(f"{c.errors[band]:.3g}"), _key(c, band)),
-                    )
-                    w = top.worst.get(band)
-                    horizon = (
-                        w is not None
-                        and w[0] == "random"
-                        and all(
-                            (top.set_errors.get(s, {}).get(band) or 0.0) <= tol
-                            for s in ("facing", "floor")
-                        )
-                    )
-                    reason = (
-                        ", where part of the light sinks below a tilted receiver's horizon "
-                        f"(within {fmt_pct(tol)} on the facing and floor receivers)"
-                        if horizon
-                        else "; an area-light model is needed here"
-                    )
-                    entry.update(
-                        model=None,
-                        mode=top.mode,
-                        model_kind=top.kind,
-                        params=top.params,
-                        error=top.errors[band],
-                        cost=top.cost,
-                        why=(
-                            f"The closest is {fmt_pct(top.errors[band])} off"
-                            f"{_where(top, band)}{reason}."
-                        ),
-                        best=top.model,
-                    )
+                    entry.update(_none_within(ranking, judged, band, tol))
                 out.append(entry)
     return out
+
+
+def _chosen(best: Candidate, judged: Sequence[Candidate], band: str, tol: float) -> dict:
+    """The entry's fields for the cheapest candidate within `tol`, with why."""
+    cheaper = [
+        c for c in judged if c.cost is not None and best.cost is not None and c.cost < best.cost
+    ]
+    near = rank_band(cheaper, band, tol).closest
+    if near is not None:
+        n = near.item
+        why = (
+            f"The cheapest within {fmt_pct(tol)}; the best cheaper curve, "
+            f"`{n.model}` {n.mode} (cost {fmt_num(n.cost)}), is "
+            f"{fmt_pct(n.errors[band])} off{_where(n, band)}."
+        )
+    elif best.cost is not None:
+        why = f"The cheapest curve of all; its largest error is{_where(best, band) or ' here'}."
+    else:
+        why = f"Cost not measured: the smallest error{_where(best, band)}."
+    if best.mode == "fitted":
+        why += " Parameters fitted on the facing sweep."
+    return {
+        "model": best.model,
+        "mode": best.mode,
+        "model_kind": best.kind,
+        "params": best.params,
+        "error": best.errors.get(band),
+        "cost": best.cost,
+        "why": why,
+    }
+
+
+def _none_within(
+    ranking: Ranking[Candidate], judged: Sequence[Candidate], band: str, tol: float
+) -> dict:
+    """The entry's fields where no candidate is within `tol`: the closest, and why."""
+    top = (ranking.closest or ranking.outside[0]).item
+    assert top is not None
+    if top.kind != "distance curve":  # an area model is closest, and still not within
+        curve = rank_band(judged, band, tol).closest
+        reason = "; no model of either class meets the tolerance" + (
+            f" (the closest distance curve, `{curve.item.model}` {curve.item.mode}, is "
+            f"{fmt_pct(curve.error)} off)"
+            if curve is not None and curve.item is not None
+            else ""
+        )
+    else:
+        w = top.worst.get(band)
+        horizon = (
+            w is not None
+            and w[0] == "random"
+            and all(
+                (top.set_errors.get(s, {}).get(band) or 0.0) <= tol for s in ("facing", "floor")
+            )
+        )
+        reason = (
+            ", where part of the light sinks below a tilted receiver's horizon "
+            f"(within {fmt_pct(tol)} on the facing and floor receivers)"
+            if horizon
+            else "; an area-light model is needed here"
+        )
+    return {
+        "model": None,
+        "mode": top.mode,
+        "model_kind": top.kind,
+        "params": top.params,
+        "error": top.errors[band],
+        "cost": top.cost,
+        "why": f"The closest is {fmt_pct(top.errors[band])} off{_where(top, band)}{reason}.",
+        "best": top.model,
+    }
 
 
 def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "") -> str:
@@ -328,8 +271,8 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
             model = f"none; closest: `{e['best']}` {e['mode']}"
         else:
             model = f"`{e['model']}` {e['mode']}"
-            if e.get("model_kind") and e["model_kind"] != "distance curve":
-                model += f" ({e['model_kind']})"
+        if e.get("model_kind") and e["model_kind"] != "distance curve":
+            model += f" ({e['model_kind']})"
         why = e["why"].replace(f"within {fmt_pct(e['tolerance'])}", "within the tolerance")
         same = (light, e["band"], model, e["params"], fmt_pct(e["error"]), why)
         if rows and rows[-1][0] == same:
@@ -364,7 +307,9 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
         "bands on the distance from the light's surface (d − r for a sphere, to the nearest point of a disk). "
         "Cheapest by the compiled shader cost"
         + (f" ({costs_label})" if costs_label else "")
-        + "; ties go to the smaller error. Windowed curves qualify only for bands within "
+        + "; ties go to the smaller error (errors equal to 3 digits: to the model with fewer "
+        "parameters), then to the name. Where no model is within the tolerance, the closest "
+        "of either class is named. Windowed curves qualify only for bands within "
         "half their range. *published*: the source's parameters for the light; *fitted*: "
         "shape parameters fitted to the facing sweep by least squares on the relative error, "
         "ranges fixed."

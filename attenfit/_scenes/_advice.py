@@ -16,6 +16,7 @@ import numpy as np
 
 from .._atomic import atomic_dir
 from .._curves import Family, SpotFalloff
+from .._judge import Contender
 from ._scene import Scene
 
 
@@ -55,6 +56,21 @@ class Candidate:
         """The family, with its spot falloff if any."""
         return self.family if self.directional is None else f"{self.family} + {self.directional}"
 
+    def contender(self, light: int | None = None) -> Contender[Candidate]:
+        """This candidate for `attenfit._judge.rank`: over every light (`light` None, allowed
+        when its status is "pass"), or at one light (its error there; allowed unless it is
+        excluded or failed for a reason other than an error: a precision failure, a
+        non-finite value, a broken constraint)."""
+        if light is None:
+            error, allowed = self.error, self.status == "pass"
+        else:
+            error = self.error_by_light[light] if light < len(self.error_by_light) else None
+            allowed = self.status == "pass" or (
+                self.status == "fail" and self.reason.startswith("error ")
+            )
+        n = len(self.params[0]) if self.params else 0
+        return Contender(self.family, error, self.shader_cost, n, allowed, item=self)
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "family": self.family,
@@ -86,7 +102,8 @@ class Recommendation:
     next cheapest within tolerance (or, when only the winner passes, the most accurate of
     the rest, with `runner_up.status` "fail"), `closest` the most accurate candidate (the one
     to look at when nothing passes). `candidates` lists every family: passing ones by cost,
-    then failing ones by error, then excluded ones. `shaders` maps "glsl", "hlsl", "wgsl",
+    then failing ones by error, then excluded ones. Every order is `attenfit._judge.rank`'s
+    (cost, then error, then name; docs/report.md, "How a model is chosen"). `shaders` maps "glsl", "hlsl", "wgsl",
     "c" to the winner's exported function(s). `truth` summarises the generated
     configurations per light; `directional_fits` the spot falloff fits.
     """
@@ -138,8 +155,8 @@ class Recommendation:
             "tolerance": self.tolerance,
             "error_floor": self.scene.error_floor,
             "summary": self.summary(),
-            "ranking": "shader_cost (compiled cost of the shader form), then error, then "
-            "measured ns_per_eval",
+            "ranking": "shader_cost (compiled cost of the shader form), then error (errors "
+            "equal to 3 significant digits: fewer parameters first), then family name",
             "cost": self.cost_label,
             "measured": self.measured,
             "winner": None if self.winner is None else self.winner.to_dict(),
@@ -172,8 +189,8 @@ class Recommendation:
         lines += [
             f"Tolerance {pct(s.tolerance)} (max relative error of the irradiance){floor}; "
             f"constraints: {', '.join(cons) or 'none'}. Ranked by the compiled cost of the shader "
-            f"form ({self.cost_label or 'not computed'}), "
-            f"then error{', then measured time' if self.measured else ''}.",
+            f"form ({self.cost_label or 'not computed'}), then error (equal to 3 digits: fewer "
+            "parameters first), then name.",
             "",
             "## What was generated (only the scene's configurations)",
             "",

@@ -28,6 +28,7 @@ import numpy as np
 
 from .._curves import Family, get_family
 from .._errors import AttenfitError
+from .._judge import rank
 from ._advice import Candidate, Recommendation, pct
 from ._engine import Engine
 from ._files import ImportedScene
@@ -81,15 +82,30 @@ class LightChoice:
         }
 
 
-def _passes_at(c: Candidate, i: int, tol: float) -> bool:
-    """Within tolerance at light `i`, and not failed for a reason other than another light's
-    error (a precision failure, a non-finite value, a broken constraint)."""
-    if c.status == "excluded" or len(c.error_by_light) <= i:
-        return False
-    if c.status == "fail" and not c.reason.startswith("error "):
-        return False
-    e = c.error_by_light[i]
-    return math.isfinite(e) and e <= tol
+def pick_for_light(
+    candidates: Sequence[Candidate], i: int, tolerance: float, windowed: bool = False
+) -> tuple[Candidate | None, str]:
+    """The family to answer light `i` with, and its status: the cheapest of the fitted
+    `candidates` within `tolerance` at that light ("pass"; with `windowed`, a windowed one
+    where any passes), else the closest there ("fail"; None when none is judged there).
+
+    Ranked by `attenfit._judge.rank` on each candidate's error at light `i`
+    (`Candidate.contender(i)`): the tie-break of the all-lights recommendation, so both
+    answers break a tie alike. A candidate failed for a reason other than its error (a
+    precision failure, a non-finite value, a broken constraint) is never within."""
+    ranking = rank((c.contender(i) for c in candidates if c.models), tolerance)
+    if ranking.best is not None:
+        within = [c.item for c in ranking.within]
+        if windowed:
+            within = [c for c in within if _is_windowed(c)] or within  # type: ignore[arg-type]
+        return within[0], "pass"
+    if ranking.closest is not None:
+        return ranking.closest.item, "fail"
+    return None, "fail"
+
+
+def _is_windowed(c: Candidate) -> bool:
+    return _range_param(get_family(c.family)) is not None
 
 
 def _volume(light, R: float) -> float:
@@ -224,23 +240,17 @@ def light_choices(
     out = []
     for i, light in enumerate(scene.lights):
         x = datas[i]
-        passing = [c for c in rec.candidates if _passes_at(c, i, scene.tolerance) and c.models]
-        windowed = [c for c in passing if _range_param(get_family(c.family)) is not None]
-        if imported.threshold is not None and windowed:
-            pick, status = min(windowed, key=lambda c: (c.shader_cost, c.error_by_light[i])), "pass"
-        elif passing:
-            pick, status = min(passing, key=lambda c: (c.shader_cost, c.error_by_light[i])), "pass"
-        else:
-            judged = [c for c in rec.candidates if c.models and math.isfinite(c.error_by_light[i])]
-            if not judged:
-                out.append(
-                    LightChoice(
-                        i, imported.names[i], imported.file_kinds[i], len(x.d), None, "fail",
-                        {}, None, None, None, None, {}, None,
-                    )
-                )  # fmt: skip
-                continue
-            pick, status = min(judged, key=lambda c: c.error_by_light[i]), "fail"
+        pick, status = pick_for_light(
+            rec.candidates, i, scene.tolerance, windowed=imported.threshold is not None
+        )
+        if pick is None:
+            out.append(
+                LightChoice(
+                    i, imported.names[i], imported.file_kinds[i], len(x.d), None, "fail",
+                    {}, None, None, None, None, {}, None,
+                )
+            )  # fmt: skip
+            continue
         model = pick.models[i]
         spot_model = pick.spot_models[i] if pick.spot_models else None
         spot = None
@@ -252,7 +262,7 @@ def light_choices(
             }
         trade = None
         final = model
-        if imported.threshold is not None and status == "pass" and pick in windowed:
+        if imported.threshold is not None and status == "pass" and _is_windowed(pick):
             ref = imported.published_ranges[i]
             if ref is None and engine is not None:
                 ref = engine.default_range

@@ -24,6 +24,7 @@ import numpy as np
 from .._curves import AreaModel, get_area_model, list_area_models
 from .._errors import AttenfitError
 from .._fit import fit
+from .._judge import Contender, rank
 from .._shaders import LANGUAGES, area_compiled_cost, area_function_source
 from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep
 from ._advice import pct
@@ -49,6 +50,12 @@ class AreaCandidate:
     @property
     def label(self) -> str:
         return self.model + (" (fitted)" if self.fitted else "")
+
+    def contender(self) -> Contender[AreaCandidate]:
+        """This candidate for `attenfit._judge.rank` (allowed when its status is "pass")."""
+        return Contender(
+            self.label, self.error, self.cost, len(self.params), self.status == "pass", item=self
+        )
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -205,10 +212,11 @@ def escalate(
                     )
                 )
     label = area_compiled_cost(models[0]).label()
-    passing = sorted((c for c in candidates if c.status == "pass"), key=lambda c: (c.cost, c.error))
-    failing = sorted((c for c in candidates if c.status == "fail"), key=lambda c: c.error)
+    ranking = rank((c.contender() for c in candidates), scene.tolerance)
+    passing = [c.item for c in ranking.within]
+    failing = [c.item for c in ranking.outside]
     winner = passing[0] if passing else None
-    closest = min(candidates, key=lambda c: (c.error, c.cost)) if candidates else None
+    closest = ranking.closest.item if ranking.closest is not None else None
     shaders = _shaders(winner, [float(light.radius) for light in lights]) if winner else {}
     return AreaEscalation(
         why, (*passing, *failing), winner, closest, label, shaders, float(scene.tolerance)

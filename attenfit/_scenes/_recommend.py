@@ -27,11 +27,14 @@
    code `attenfit export` writes (`attenfit.cost.structural_cost`: SPIR-V instructions from
    glslangValidator and `spirv-opt -O`, else NVIDIA SASS instructions, else the labelled
    traced-operation estimate; counted with generic parameter values, so a family costs the
-   same for every light, as in an engine that reads them from the light), then by error, then by measured time
-   (`attenfit.cost.measure_throughput`, when `measure=True`; reported for every candidate).
-   The compiled count is the primary key because it is deterministic and describes the
-   shader the user will ship, while the measured time is of XLA on this machine and moves
-   by 10-30% between runs on a shared machine. A scene's `precision` (float32, float16)
+   same for every light, as in an engine that reads them from the light), then by error,
+   with `attenfit._judge.rank`, the tie-break of every verdict (errors equal to 3
+   significant digits go to the family with fewer parameters, then the smaller error, then
+   the name; docs/report.md, "How a model is chosen"). The measured time
+   (`attenfit.cost.measure_throughput`, when `measure=True`) is reported for every
+   candidate, never ranked: the compiled count is deterministic and describes the shader
+   the user will ship, while the measured time is of XLA on this machine and moves by
+   10-30% between runs on a shared machine. A scene's `precision` (float32, float16)
    evaluates every shader form in that precision at the judged receivers: a family that
    overflows or flushes to 0 there is refused with the reason, one that loses accuracy is
    judged on what it computes.
@@ -50,10 +53,12 @@ from .. import _progress
 from .._curves import Family, get_family, list_families
 from .._errors import AttenfitError, BadTypeError, BadValueError
 from .._float64 import in_float64
+from .._judge import Contender, rank
 from .._shaders import LANGUAGES, export, measure_throughput, structural_cost
 from ._advice import Candidate, Recommendation, pct
 from ._light_fits import (
     LightData,
+    SpotVariant,
     fit_group,
     fit_plan,
     judged_errors,
@@ -95,162 +100,17 @@ def recommend(
     """
     if not isinstance(scene, Scene):
         raise BadTypeError(f"recommend takes an attenfit.Scene, got {type(scene).__name__}")
-    n_receivers = receiver_count(scene.receivers)
-    _progress.stage(f"ground truth: {len(scene.lights)} lights, up to {n_receivers} receivers each")
-    truths = scene.ground_truth() if truths is None else tuple(truths)
-    datas = [light_data(scene, t) for t in truths]
-    for k, x in enumerate(datas):
-        if x.d.size == 0:
-            raise BadValueError(
-                f"{scene.source}: [[lights]][{k}]: no receiver can be judged for this light "
-                "(all are beyond its range or face away from it)"
-            )
-    d_all = np.concatenate([x.d for x in datas])
-    d_lo, d_hi = float(d_all.min()), float(d_all.max())
-    knots = (
-        tuple(float(k) for k in np.geomspace(d_lo, d_hi, 6)) if d_hi > d_lo else (d_lo, d_lo * 2)
-    )
+    truths, datas = _judged_truth(scene, truths)
     variants, directional_fits = spot_variants(scene, datas, measure)
-
-    fitted: dict[str, tuple[list[Family], list[bool], list[str]]] = {}
-    candidates: list[Candidate] = []
-    names = _candidate_names(scene)
-    with _progress.count(len(names), f"fitting {len(names)} families") as bar:
-        for name in names:
-            _fit_family(scene, name, datas, d_hi, knots, fitted, candidates)
-            bar.update()
+    fitted, candidates = _fit_families(scene, datas)
     _progress.stage("shader costs")
-
-    costs: dict[str, float] = {}
-    cost_label = ""
-    for name, (models, _, _) in fitted.items():
-        try:
-            c = structural_cost(models[0])
-        except (AttenfitError, ValueError):  # parameters a shader cannot bake (non-finite)
-            c = structural_cost(get_family(name)())
-        costs[name], cost_label = c.cost, c.label()
-    ns: dict[str, float] = {}
-    if measure and fitted:
-        _progress.stage("measuring each candidate on this machine")
-        to_time = []
-        for models, _, _ in fitted.values():
-            m = models[0]
-            if all(np.all(np.isfinite(np.asarray(v))) for v in m.params().values()):
-                to_time.append(m)
-        if to_time:
-            timed = measure_throughput(to_time, n=1 << 16, repeats=5)
-            ns = {k: v[0] for k, v in timed.items()}
-
+    costs, cost_label = _shader_costs(fitted)
+    ns = _measured(fitted) if measure and fitted else {}
     curves: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for name, (models, conv, msgs) in fitted.items():
-        f_by_light = []
-        bad = None
-        for x, m in zip(datas, models, strict=True):
-            try:
-                f = shade(m, x.d, scene.precision)
-                bad = bad or _precision_problem(m, x.d, f, scene.precision)
-                f_by_light.append(f)
-            except AttenfitError as exc:
-                bad = str(exc)
-                f_by_light.append(np.full_like(x.d, np.nan))
-        # choose the spot falloff variant for this family
-        best = None
-        for v in variants:
-            errs = [judged_errors(x, f, g) for x, f, g in zip(datas, f_by_light, v.g, strict=True)]
-            e = max(float(er.max()) for er in errs)
-            key_pass = e <= scene.tolerance
-            rank = (0, v.cost, e) if key_pass else (1, e, v.cost)
-            if best is None or rank < best[0]:
-                best = (rank, v, errs, e)
-        assert best is not None
-        _, v, errs, e = best
-        total_cost = costs[name] + v.cost
-        total_ns = (ns[name] + v.ns) if (name in ns and v.ns is not None) else None
-        params = tuple(_plain_params(m) for m in models)
-        dparams = tuple(
-            None
-            if m is None
-            else {
-                "umbra": math.degrees(float(m.umbra)),
-                "penumbra": math.degrees(float(m.penumbra)),
-            }
-            for m in v.models
-        )
-        converged = all(conv)
-        message = "; ".join(dict.fromkeys(msgs))
-        status, reason = "pass", "within tolerance"
-        if bad is not None or not math.isfinite(e):
-            status, reason = "fail", bad or "non-finite values at the scene's receivers"
-        elif e > scene.tolerance:
-            status = "fail"
-            reason = f"error {pct(e)} > tolerance {pct(scene.tolerance)}"
-            worst = int(np.argmax([er.max() for er in errs]))
-            x = datas[worst]
-            at = float(x.d[int(np.argmax(errs[worst]))])
-            reason += f" (worst at d = {at:.3g} m, d/r = {at / x.radius:.3g}, light {worst})"
-            if not converged:
-                reason += f"; the fit did not converge ({_short(msgs)})"
-        elif not converged:
-            reason = f"within tolerance, though the fit did not converge ({_short(msgs)})"
-        if status == "pass" and scene.reach_zero_at_range:
-            for x, m in zip(datas, models, strict=True):
-                problem = check_reaches_zero(m, float(x.range))  # type: ignore[arg-type]
-                if problem:
-                    status, reason = "fail", problem
-                    break
-        candidates.append(
-            Candidate(
-                family=name,
-                status=status,
-                reason=reason,
-                error=e,
-                error_by_light=tuple(float(er.max()) for er in errs),
-                shader_cost=total_cost,
-                ns_per_eval=total_ns,
-                params=params,
-                converged=converged,
-                message=message,
-                directional=v.name or None,
-                directional_params=dparams if v.name else (),
-                models=tuple(models),
-                spot_models=v.models,
-            )
-        )
-        curves[name] = (
-            np.concatenate([x.d / x.radius for x in datas]),
-            np.concatenate(errs),
-        )
-
-    def cost_key(c: Candidate):
-        # errors equal to 3 digits are a tie (compiled code often is: disk_facing with r = 0
-        # bakes into inverse_square's shader); then the family with fewer parameters wins
-        return (
-            c.shader_cost,
-            float(f"{c.error:.3g}"),
-            len(c.params[0]) if c.params else 0,
-            c.error,
-            c.ns_per_eval if c.ns_per_eval is not None else 0.0,
-            c.family,
-        )
-
-    passing = sorted((c for c in candidates if c.status == "pass"), key=cost_key)
-    failing = sorted(
-        (c for c in candidates if c.status == "fail"),
-        key=lambda c: (
-            c.error if c.error is not None and math.isfinite(c.error) else math.inf,
-            c.family,
-        ),
-    )
-    excluded = [c for c in candidates if c.status == "excluded"]
-    ordered = (*passing, *failing, *excluded)
-    winner = passing[0] if passing else None
-    runner_up = None
-    if len(passing) > 1:
-        runner_up = passing[1]
-    elif winner is not None and failing:
-        runner_up = failing[0]
-    judged = [c for c in candidates if c.error is not None and math.isfinite(c.error)]
-    closest = min(judged, key=lambda c: (c.error, c.shader_cost)) if judged else None
+    for name, fit in fitted.items():
+        cand, curves[name] = _judge_family(scene, name, fit, datas, variants, costs[name], ns)
+        candidates.append(cand)
+    ordered, winner, runner_up, closest = order(candidates, scene.tolerance)
     shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
     area = None
     if winner is None:  # no f(d) meets the tolerance: try the area models (_escalate)
@@ -282,13 +142,222 @@ def recommend(
     )
 
 
+def order(
+    candidates: Sequence[Candidate], tolerance: float
+) -> tuple[tuple[Candidate, ...], Candidate | None, Candidate | None, Candidate | None]:
+    """`(ordered, winner, runner_up, closest)` of a scene's candidates, ranked over every
+    light by `attenfit._judge.rank` (the tie-break of every verdict): passing ones cheapest
+    first, then failing ones most accurate first, then excluded ones; the winner the first
+    passing one; the runner-up the second, or the most accurate failing one; the closest
+    the most accurate of all."""
+    ranking = rank((c.contender() for c in candidates), tolerance)
+    passing = [c.item for c in ranking.within]
+    failing = [c.item for c in ranking.outside if c.item.status == "fail"]  # type: ignore[union-attr]
+    excluded = [c.item for c in ranking.outside if c.item.status == "excluded"]  # type: ignore[union-attr]
+    winner = passing[0] if passing else None
+    runner_up = None
+    if len(passing) > 1:
+        runner_up = passing[1]
+    elif winner is not None and failing:
+        runner_up = failing[0]
+    closest = ranking.closest.item if ranking.closest is not None else None
+    return (*passing, *failing, *excluded), winner, runner_up, closest  # type: ignore[return-value]
+
+
+# ----------------------------------------------------------------------------- the steps
+_Fitted = tuple[list[Family], list[bool], list[str]]
+
+
+def _judged_truth(
+    scene: Scene, truths: Sequence[LightTruth] | None
+) -> tuple[tuple[LightTruth, ...], list[LightData]]:
+    """The scene's ground truth (computed unless given) and each light's judged receivers;
+    a light with none is an error naming it."""
+    n_receivers = receiver_count(scene.receivers)
+    _progress.stage(f"ground truth: {len(scene.lights)} lights, up to {n_receivers} receivers each")
+    truths = scene.ground_truth() if truths is None else tuple(truths)
+    datas = [light_data(scene, t) for t in truths]
+    for k, x in enumerate(datas):
+        if x.d.size == 0:
+            raise BadValueError(
+                f"{scene.source}: [[lights]][{k}]: no receiver can be judged for this light "
+                "(all are beyond its range or face away from it)"
+            )
+    return truths, datas
+
+
+def _fit_families(
+    scene: Scene, datas: Sequence[LightData]
+) -> tuple[dict[str, _Fitted], list[Candidate]]:
+    """Every candidate family fitted to every light (`_fit_family`): the fitted ones, and
+    the candidates of those excluded or not fitted."""
+    d_all = np.concatenate([x.d for x in datas])
+    d_lo, d_hi = float(d_all.min()), float(d_all.max())
+    knots = (
+        tuple(float(k) for k in np.geomspace(d_lo, d_hi, 6)) if d_hi > d_lo else (d_lo, d_lo * 2)
+    )
+    fitted: dict[str, _Fitted] = {}
+    candidates: list[Candidate] = []
+    names = _candidate_names(scene)
+    with _progress.count(len(names), f"fitting {len(names)} families") as bar:
+        for name in names:
+            _fit_family(scene, name, datas, d_hi, knots, fitted, candidates)
+            bar.update()
+    return fitted, candidates
+
+
+def _shader_costs(fitted: dict[str, _Fitted]) -> tuple[dict[str, float], str]:
+    """Each fitted family's compiled cost (with the first light's parameters baked, or its
+    defaults where those cannot be), and the label of how it was counted."""
+    costs: dict[str, float] = {}
+    cost_label = ""
+    for name, (models, _, _) in fitted.items():
+        try:
+            c = structural_cost(models[0])
+        except (AttenfitError, ValueError):  # parameters a shader cannot bake (non-finite)
+            c = structural_cost(get_family(name)())
+        costs[name], cost_label = c.cost, c.label()
+    return costs, cost_label
+
+
+def _measured(fitted: dict[str, _Fitted]) -> dict[str, float]:
+    """Nanoseconds per evaluation of each fitted family with finite parameters, measured."""
+    _progress.stage("measuring each candidate on this machine")
+    to_time = []
+    for models, _, _ in fitted.values():
+        m = models[0]
+        if all(np.all(np.isfinite(np.asarray(v))) for v in m.params().values()):
+            to_time.append(m)
+    if not to_time:
+        return {}
+    timed = measure_throughput(to_time, n=1 << 16, repeats=5)
+    return {k: v[0] for k, v in timed.items()}
+
+
+def _judge_family(
+    scene: Scene,
+    name: str,
+    fit: _Fitted,
+    datas: Sequence[LightData],
+    variants: Sequence[SpotVariant],
+    cost: float,
+    ns: dict[str, float],
+) -> tuple[Candidate, tuple[np.ndarray, np.ndarray]]:
+    """A fitted family judged on the scene with its best spot falloff variant: its
+    `Candidate`, and its judged errors against d/r over every light (for the figure)."""
+    models, conv, msgs = fit
+    f_by_light, bad = _shade(scene, models, datas)
+    v, errs, e = _pick_variant(variants, datas, f_by_light, scene.tolerance)
+    converged = all(conv)
+    status, reason = _verdict(scene, e, errs, datas, models, msgs, converged, bad)
+    cand = Candidate(
+        family=name,
+        status=status,
+        reason=reason,
+        error=e,
+        error_by_light=tuple(float(er.max()) for er in errs),
+        shader_cost=cost + v.cost,
+        ns_per_eval=(ns[name] + v.ns) if (name in ns and v.ns is not None) else None,
+        params=tuple(_plain_params(m) for m in models),
+        converged=converged,
+        message="; ".join(dict.fromkeys(msgs)),
+        directional=v.name or None,
+        directional_params=_angles(v) if v.name else (),
+        models=tuple(models),
+        spot_models=v.models,
+    )
+    curve = (np.concatenate([x.d / x.radius for x in datas]), np.concatenate(errs))
+    return cand, curve
+
+
+def _shade(
+    scene: Scene, models: Sequence[Family], datas: Sequence[LightData]
+) -> tuple[list[np.ndarray], str | None]:
+    """Each light's model evaluated in the scene's precision at its judged distances, and
+    why the shader form fails there (None if it does not)."""
+    f_by_light = []
+    bad = None
+    for x, m in zip(datas, models, strict=True):
+        try:
+            f = shade(m, x.d, scene.precision)
+            bad = bad or _precision_problem(m, x.d, f, scene.precision)
+            f_by_light.append(f)
+        except AttenfitError as exc:
+            bad = str(exc)
+            f_by_light.append(np.full_like(x.d, np.nan))
+    return f_by_light, bad
+
+
+def _pick_variant(
+    variants: Sequence[SpotVariant],
+    datas: Sequence[LightData],
+    f_by_light: Sequence[np.ndarray],
+    tolerance: float,
+) -> tuple[SpotVariant, list[np.ndarray], float]:
+    """The spot falloff variant to pair a family with: the cheapest within `tolerance`, else
+    the most accurate (`attenfit._judge.rank`); with its judged errors per light and their
+    maximum."""
+    judged = []
+    for v in variants:
+        errs = [judged_errors(x, f, g) for x, f, g in zip(datas, f_by_light, v.g, strict=True)]
+        e = max(float(er.max()) for er in errs)
+        judged.append(Contender(v.name, e, v.cost, item=(v, errs, e)))
+    ranking = rank(judged, tolerance)
+    pick = ranking.best or ranking.closest or judged[0]
+    return pick.item  # type: ignore[return-value]
+
+
+def _verdict(
+    scene: Scene,
+    e: float,
+    errs: Sequence[np.ndarray],
+    datas: Sequence[LightData],
+    models: Sequence[Family],
+    msgs: Sequence[str],
+    converged: bool,
+    bad: str | None,
+) -> tuple[str, str]:
+    """`(status, reason)` of a fitted family: "pass" within tolerance with every constraint
+    kept, else "fail" with the first reason (a precision failure, the error and where it
+    is, a range it does not reach 0 at)."""
+    if bad is not None or not math.isfinite(e):
+        return "fail", bad or "non-finite values at the scene's receivers"
+    if e > scene.tolerance:
+        reason = f"error {pct(e)} > tolerance {pct(scene.tolerance)}"
+        worst = int(np.argmax([er.max() for er in errs]))
+        x = datas[worst]
+        at = float(x.d[int(np.argmax(errs[worst]))])
+        reason += f" (worst at d = {at:.3g} m, d/r = {at / x.radius:.3g}, light {worst})"
+        if not converged:
+            reason += f"; the fit did not converge ({_short(msgs)})"
+        return "fail", reason
+    if scene.reach_zero_at_range:
+        for x, m in zip(datas, models, strict=True):
+            problem = check_reaches_zero(m, float(x.range))  # type: ignore[arg-type]
+            if problem:
+                return "fail", problem
+    if not converged:
+        return "pass", f"within tolerance, though the fit did not converge ({_short(msgs)})"
+    return "pass", "within tolerance"
+
+
+def _angles(v: SpotVariant) -> tuple[dict[str, float] | None, ...]:
+    """A spot variant's umbra and penumbra per light, in degrees (None: not a spot)."""
+    return tuple(
+        None
+        if m is None
+        else {"umbra": math.degrees(float(m.umbra)), "penumbra": math.degrees(float(m.penumbra))}
+        for m in v.models
+    )
+
+
 def _fit_family(
     scene: Scene,
     name: str,
     datas: Sequence[LightData],
     d_hi: float,
     knots: tuple[float, ...],
-    fitted: dict[str, tuple[list[Family], list[bool], list[str]]],
+    fitted: dict[str, _Fitted],
     candidates: list[Candidate],
 ) -> None:
     """Fit family `name` to every light of the scene: into `fitted`, or a `Candidate` that

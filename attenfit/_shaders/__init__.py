@@ -26,6 +26,7 @@ from ._cost import count_ops as count_ops
 from ._cost import family_cost as family_cost
 from ._cost import measure_throughput as measure_throughput
 from ._cost import pareto_front as pareto_front
+from ._cost import rank_key as rank_key
 from ._cost import shader_cost as shader_cost
 from ._export import FORMS as FORMS
 from ._export import LANGUAGES as LANGUAGES

@@ -15,7 +15,8 @@ Three views of the same question, so that a ranking never rests on a noisy clock
   instruction (add, mul or fused multiply-add), with the weights of `SHADER_WEIGHTS`.
 
 `family_cost(family)` and `cost_table(families)` return `Cost` records; `pareto_front`,
-`cheapest_within` and `plot_cost_vs_error` put them against each family's error.
+`cheapest_within` and `plot_cost_vs_error` put them against each family's error; `rank_key`
+is the tie-break of every verdict (cost, then error, then name; see its docstring).
 
 Notes
 -----
@@ -38,6 +39,7 @@ source modifiers; a multiply whose only use is an add fuses into one FMA.
 from __future__ import annotations
 
 import dataclasses
+import math
 import statistics
 import time
 from collections.abc import Iterable, Mapping, Sequence
@@ -343,7 +345,7 @@ class ParetoFront:
                 "on_front": name in self.front,
                 "dominated_by": self.dominated.get(name),
             }
-            for name in sorted(self.cost, key=lambda k: (self.cost[k], self.error[k], k))
+            for name in sorted(self.cost, key=lambda k: rank_key(self.cost[k], self.error[k], k))
         ]
 
 
@@ -387,7 +389,7 @@ def pareto_front(
             raise BadValueError(
                 f"family {k!r}: error {v!r} must be >= 0 and cost {cost[k]!r} finite and >= 0"
             )
-    order = sorted(cost, key=lambda k: (cost[k], err[k], k))
+    order = sorted(cost, key=lambda k: rank_key(cost[k], err[k], k))
 
     def dominates(a: str, b: str) -> bool:
         return cost[a] <= cost[b] and err[a] <= err[b] and (cost[a] < cost[b] or err[a] < err[b])
@@ -403,20 +405,67 @@ def cheapest_within(
     tolerance: float,
     *,
     by: str = "shader_cost",
+    params: Mapping[str, int] | None = None,
 ) -> list[str]:
     """The families whose error is at most `tolerance`, cheapest first.
 
-    Ties in cost are broken by the smaller error, then by name; NaN errors never qualify.
-    The first entry is the recommendation, the second the runner-up; an empty list means
-    no family meets the tolerance. `by` is as in `pareto_front`.
+    Ordered by `rank_key`, the tie-break of every verdict attenfit gives: at equal cost the
+    smaller error, then the name; with `params` (family -> its number of parameters; 0 where
+    not given), errors equal to 3 significant digits go to the family with fewer, as in the
+    report and `attenfit scene`. NaN errors never qualify. The first entry is the
+    recommendation, the second the runner-up; an empty list means no family meets the
+    tolerance. `by` is as in `pareto_front`.
     """
     if not (isinstance(tolerance, int | float) and tolerance >= 0):
         raise BadValueError(f"tolerance must be a number >= 0, got {tolerance!r}")
     missing = sorted(set(errors) - set(costs))
     if missing:
         raise BadValueError(f"families {missing} have an error but no cost")
+    counts = dict(params or {})
+    for k, n in counts.items():
+        if isinstance(n, bool) or not isinstance(n, int) or n < 0:
+            raise BadValueError(f"params[{k!r}] must be an integer >= 0, got {n!r}")
     ok = [k for k, e in errors.items() if float(e) <= tolerance]
-    return sorted(ok, key=lambda k: (_cost_value(costs[k], by), float(errors[k]), k))
+    return sorted(
+        ok,
+        key=lambda k: rank_key(_cost_value(costs[k], by), float(errors[k]), k, counts.get(k, 0)),
+    )
+
+
+# ----------------------------------------------------------------------------- the tie-break
+def _shown(x: float) -> float:
+    """`x` to 3 significant digits, as every table of attenfit prints an error."""
+    return float(f"{x:.3g}")
+
+
+def rank_key(
+    cost: float | None, error: float | None, name: str, params: int = 0
+) -> tuple[float, float, int, float, str]:
+    """The order of every "cheapest model within the tolerance" attenfit names.
+
+    One tie-break, for every verdict (`cheapest_within`, the report's decision table, a
+    scene's recommendation and its per-light answers, the area models it escalates to;
+    `attenfit._judge.rank` applies it):
+
+    1. the smaller `cost` (None or NaN: after every known cost);
+    2. the smaller `error` to 3 significant digits, as the tables print it (None or NaN:
+       after every number);
+    3. fewer `params`, the number of parameters the model takes: between two models that
+       cost the same and whose errors agree to 3 digits the simpler one wins (a family
+       whose extra parameter was fitted to 0 compiles to the simpler family's shader:
+       `disk_facing` with r = 0 is `inverse_square`, off by rounding);
+    4. the smaller `error` itself;
+    5. `name` (a fitted variant is named `"<model> (fitted)"`, so at a full tie the model
+       as published or shipped, whose name is a prefix of it, comes first).
+
+    When every model has the same `params`, this is cost, then error, then name.
+    """
+
+    def number(x: float | None) -> float:
+        return math.inf if x is None or math.isnan(x) else float(x)
+
+    e = number(error)
+    return (number(cost), _shown(e), int(params), e, name)
 
 
 def _format_table(costs: Mapping[str, Cost], columns: Sequence[str] = CATEGORIES) -> str:
