@@ -309,7 +309,7 @@ def test_cli_refuses_an_unknown_model_naming_the_known_ones(capsys):
     assert main(["export", "no_such_model"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert err.startswith("attenfit: error: unknown family or area model 'no_such_model'; ")
+    assert err.startswith("attenfit: error: unknown family 'no_such_model' (nor area model); ")
     for name in [*af.list_families(), *area.list_area_models()]:
         assert name in err
 

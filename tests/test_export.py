@@ -285,7 +285,7 @@ def test_fitresult_like_objects_are_accepted():
             ("no_such_family",),
             {},
             attenfit.UnknownNameError,
-            "unknown family or area model 'no_such_family'",
+            "unknown family 'no_such_family' (nor area model)",
         ),
         (("yuksel",), {"name": "2bad"}, attenfit.BadValueError, "function name '2bad'"),
         (("yuksel",), {"params": {"q": 1.0}}, attenfit.UnknownNameError, "no parameter 'q'"),

@@ -125,7 +125,7 @@ def _resolve(source: Any, family: str | None) -> tuple[Family | AreaModel, dict[
             area = get_area_model(source)()
         elif source not in list_families():
             raise UnknownNameError(
-                f"unknown family or area model {source!r}; families: "
+                f"unknown family {source!r} (nor area model); known families: "
                 f"{', '.join(list_families())}; area models: {', '.join(list_area_models())}"
             )
     elif isinstance(getattr(source, "model", None), AreaModel):  # a FitResult
