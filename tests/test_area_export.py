@@ -208,7 +208,8 @@ def _sources(lang: str) -> tuple[str, str]:
     for k, model in enumerate(MODELS):
         for kind, uniforms in (("baked", False), ("unif", True)):
             parts.append(ex.export(model, lang, name=f"{kind}_{k}", uniforms=uniforms))
-            calls.append(f"{kind}_{k}(v, 0.5, 0.5, 0.1, 0.5, 0.5)")
+            extra = len(model.params()) if uniforms and lang in ("c", "cuda") else 0
+            calls.append(f"{kind}_{k}(v, 0.5, 0.5, 0.1, 0.5, 0.5{', 0.7' * extra})")
     return "\n".join(parts), " + ".join(calls)
 
 
@@ -264,6 +265,17 @@ def test_wgsl_validates(tmp_path, tool):
     (tmp_path / "area.wgsl").write_text(src)
     _run([path, "area.wgsl"] if tool == "naga" else [path, "--format", "wgsl", "area.wgsl"],
          tmp_path)  # fmt: skip
+
+
+def test_cuda_compiles_with_nvrtc():
+    from attenfit._shaders._compilers import _ptx, compilers
+
+    if not compilers().get("nvrtc"):
+        pytest.skip("NVRTC is not installed (the [shader] extra): this compile did not run")
+    body, calls = _sources("cuda")
+    kernel = f"__global__ void k(const float *x, float *o) {{ float v = x[0]; o[0] = {calls}; }}\n"
+    ptx = _ptx(body + kernel).decode()
+    assert ".entry" in ptx and "sqrt" in ptx  # the kernel, with the models' roots inlined
 
 
 # ----------------------------------------------------------------------------- the CLI verb
