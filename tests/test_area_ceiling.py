@@ -11,6 +11,7 @@ import pytest
 import attenfit
 from attenfit._report import _ceiling_eval as CE
 from attenfit._report._ceiling import ceiling_section
+from attenfit._shaders._text import comment_safe
 from attenfit.area import VectorDisk
 from attenfit.scene import Scene
 
@@ -108,7 +109,10 @@ def test_escalation_picks_the_cheapest_area_model_and_says_why():
     by = {c.model: c for c in area.candidates}
     assert by["frostbite_disk"].status == "fail"
     assert "no f(d) can: the error is angular" in rec.summary()
-    assert "attenfit_area_light_0" in rec.shaders["glsl"]
+    assert (
+        "float attenfit_vector_disk(float d, float cos_r, float cos_e, float r, float cos_n, float g)"
+        in rec.shaders["glsl"]
+    )
     assert "vector_disk" in rec.to_markdown()
     # the best f(d)'s error that the sentence quotes is over the tolerance
     quoted = float(area.why.split("curve) is ")[1].split("%")[0]) / 100
@@ -128,5 +132,6 @@ def test_escalation_writes_the_area_models_shaders(tmp_path):
     rec = attenfit.recommend(dataclasses.replace(scene, families=("inverse_square",)))
     out = rec.save(tmp_path / "out")
     text = (out / "attenfit_area_vector_disk.glsl").read_text(encoding="utf-8")
-    assert "float attenfit_area_light_0(float d, float cos_r" in text
-    assert "const float radius = 0.1;" in text
+    assert "float attenfit_vector_disk(float d, float cos_r" in text
+    assert f"// source  : {comment_safe(VectorDisk.source)}" in text  # the citation
+    assert "// lights  : r = 0.1 (light 0); pass each light's radius as r" in text

@@ -68,6 +68,17 @@ def test_disk_forms_agree_with_their_models(name, disk_inputs):
         assert err[above].max() < 1e-6  # the unguarded form cancels near the rim
 
 
+def test_the_clamped_vector_disk_has_its_own_form(disk_inputs):
+    """clip="clamp" is max(0, n.F) where the horizon cuts the disk: no cap, no clamps."""
+    model = area.VectorDisk(clip="clamp")
+    x, given = disk_inputs
+    err = _check(model, x, given)
+    assert err.max() < 1e-6
+    names = [n for n, _ in area_shader_form(model).lets]
+    assert "e_vec" in names and not any(n.startswith("cap_") for n in names)
+    assert any(n.startswith("cap_") for n, _ in area_shader_form(area.VectorDisk()).lets)
+
+
 def test_point_light_form_is_the_family_form_times_the_clamped_cosine(sphere_inputs):
     x, given = sphere_inputs
     fam = af.Yuksel(r=0.4)

@@ -281,7 +281,12 @@ def test_fitresult_like_objects_are_accepted():
     [
         (("yuksel", "fortran"), {}, attenfit.UnknownNameError, "unknown language 'fortran'"),
         (("yuksel",), {"form": "fast"}, attenfit.UnknownNameError, "unknown form 'fast'"),
-        (("no_such_family",), {}, attenfit.UnknownNameError, "unknown family 'no_such_family'"),
+        (
+            ("no_such_family",),
+            {},
+            attenfit.UnknownNameError,
+            "unknown family 'no_such_family' (nor area model)",
+        ),
         (("yuksel",), {"name": "2bad"}, attenfit.BadValueError, "function name '2bad'"),
         (("yuksel",), {"params": {"q": 1.0}}, attenfit.UnknownNameError, "no parameter 'q'"),
         ((42,), {}, attenfit.BadTypeError, "export takes a Family"),

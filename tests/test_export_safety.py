@@ -10,6 +10,7 @@ import json
 import shutil
 import subprocess
 from pathlib import Path
+from typing import ClassVar
 
 import pytest
 
@@ -120,3 +121,22 @@ def test_a_user_familys_text_is_sanitised_too():
     )
     src = ex.export(Evil(), "glsl")
     assert "\n#error" not in src and "\u2028" not in src and "*/" not in src
+
+
+@pytest.mark.parametrize("lang", ["c", "wgsl"])
+def test_hostile_fit_of_an_area_model_stays_in_the_comment(lang, tmp_path):
+    """An area model's header quotes a fit's metrics too: the same escapes apply."""
+    terms = WGSL if lang == "wgsl" else C_LIKE
+    for k, payload in enumerate(_payloads(terms, ESCAPES[lang])):
+
+        class Result:  # duck-typed FitResult of an area model
+            model = attenfit.area.UnrealWrap(k=1.2)
+            metrics: ClassVar = {f"err{payload}": 0.5}
+            converged = payload
+
+        src = ex.export(Result(), lang)
+        assert all(ch == "\n" or 0x20 <= ord(ch) < 0x7F for ch in src), repr(payload)
+        where = tmp_path / f"{k}"
+        where.mkdir()
+        proc = _compile(lang, src, where)
+        assert proc.returncode == 0, (repr(payload), proc.stdout, proc.stderr)

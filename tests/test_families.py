@@ -528,8 +528,10 @@ def test_cli_families_table_and_json(capsys):
     assert "Yuksel 2020" in out and "KHR_lights_punctual" in out
     assert "params : r=0.1\n" in out and "knot_values=[4.605, 4.595, 3.912," in out
     assert main(["families", "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    listing = json.loads(capsys.readouterr().out)
+    rows = listing["families"]
     assert [r["name"] for r in rows] == NAMES
+    assert [r["name"] for r in listing["area_models"]] == attenfit.list_area_models()
     yk = rows[NAMES.index("yuksel")]
     assert yk["params"] == {"r": {"default": 0.1, "constraint": "positive"}}
     assert yk["default_free"] == ["r"]

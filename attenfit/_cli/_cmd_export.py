@@ -1,4 +1,5 @@
-"""`attenfit export`: a (fitted) family as a GLSL, HLSL, WGSL, C or CUDA function."""
+"""`attenfit export`: a (fitted) family, or an area model, as a GLSL, HLSL, WGSL, C or CUDA
+function."""
 
 from __future__ import annotations
 
@@ -13,15 +14,17 @@ def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
         "export",
         parents=parents,
-        help="write a (fitted) family as a GLSL, HLSL, WGSL, C or CUDA function",
+        help="write a (fitted) family or an area model as a GLSL, HLSL, WGSL, C or CUDA function",
         description="Print (or write with --out) a self-contained shader, C or CUDA function of "
-        "a family: its shader form (the engines' expression, the default) or its stable form "
-        "(the guarded expression the JAX code evaluates).",
+        "a family, f(d): its shader form (the engines' expression, the default) or its stable "
+        "form (the guarded expression the JAX code evaluates); or of an area model, "
+        "E/I(d, cos_r, cos_e, r, cos_n, g): its shader form.",
     )
     p.add_argument(
         "source",
-        metavar="FAMILY|FIT.json",
-        help="a family name (see `attenfit families`) or a fit written by `attenfit fit --out`",
+        metavar="MODEL|FIT.json",
+        help="a family or area model name (see `attenfit families`) or a fit written by "
+        "`attenfit fit --out`",
     )
     p.add_argument(
         "--lang", default="glsl", help="glsl (default), hlsl, wgsl, c or cuda", metavar="LANG"
@@ -31,7 +34,7 @@ def add_parser(sub, parents: list) -> None:
         default="shader",
         metavar="FORM",
         help="shader (default: the engines' expression, no guards) or stable (attenfit's "
-        "guarded form)",
+        "guarded form; families only)",
     )
     p.add_argument(
         "--param",
@@ -44,14 +47,16 @@ def add_parser(sub, parents: list) -> None:
         "--family",
         default=None,
         metavar="NAME",
-        help="the fit to export when FIT.json holds several families",
+        help="the fit to export when FIT.json holds several families (not for an area model)",
     )
     p.add_argument(
         "--uniforms",
         action="store_true",
         help="read parameters from uniforms (C: function arguments) instead of baking them in",
     )
-    p.add_argument("--name", default=None, help="function name (default attenfit_<family>)")
+    p.add_argument(
+        "--name", default=None, help="function name (default attenfit_<family or model>)"
+    )
     p.add_argument("--out", default=None, metavar="FILE", help="write to FILE instead of stdout")
     p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
     p.set_defaults(run=_run_export)

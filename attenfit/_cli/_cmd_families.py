@@ -1,4 +1,5 @@
-"""`attenfit families`: the families with formula, parameters and source."""
+"""`attenfit families`: the families, then the area models, with formula, parameters and
+source."""
 
 from __future__ import annotations
 
@@ -13,25 +14,33 @@ def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
         "families",
         parents=parents,
-        help="list the attenuation families with formula, parameters and source",
+        help="list the attenuation families and the area models with formula, parameters and "
+        "source",
     )
-    p.add_argument("--json", action="store_true", help="machine-readable output")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help='machine-readable output: {"families": [...], "area_models": [...]}',
+    )
     p.set_defaults(run=_run_families)
 
 
-def _descriptions() -> list[dict]:
-    """Every built-in family's `describe()`, from the cache when this code wrote it (so that
-    listing them does not import JAX), else from the families themselves."""
-    cached = _cache.read("families", "describe")
+def _descriptions() -> dict[str, list[dict]]:
+    """Every built-in family's and area model's `describe()`, from the cache when this code
+    wrote it (so that listing them does not import JAX), else from the models themselves."""
+    cached = _cache.read("families", "describe families and area models")
     if cached is not None:
         try:
             return json.loads(cached)
         except ValueError:
             pass
-    from .._curves import get_family, list_families
+    from .._curves import get_area_model, get_family, list_area_models, list_families
 
-    rows = [get_family(name).describe() for name in list_families()]
-    _cache.write("families", "describe", json.dumps(rows).encode())
+    rows = {
+        "families": [get_family(name).describe() for name in list_families()],
+        "area_models": [get_area_model(name)().describe() for name in list_area_models()],
+    }
+    _cache.write("families", "describe families and area models", json.dumps(rows).encode())
     return rows
 
 
@@ -40,15 +49,28 @@ def _run_families(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps(rows, indent=2))
         return EXIT_OK
-    for row in rows:
-        params = (
-            ", ".join(f"{p}={_fmt_default(v['default'])}" for p, v in row["params"].items())
-            or "none"
-        )
+    for row in rows["families"]:
         print(
-            f"{row['name']}\n  f(d)   = {row['formula']}\n  params : {params}\n  source : {row['source']}\n"
+            f"{row['name']}\n  f(d)   = {row['formula']}\n  params : {_params(row)}\n"
+            f"  source : {row['source']}\n"
+        )
+    print(
+        "Area models: E/I from the receiver geometry (d, cos_r, cos_e, r, cos_n, g; docs/area.md)\n"
+    )
+    for row in rows["area_models"]:
+        family = f" of {row['family']}" if row.get("family") else ""
+        print(
+            f"{row['name']} (lights: {row['light']}{family})\n  E/I    = {row['formula']}\n"
+            f"  params : {_params(row)}\n  source : {row['source']}\n"
         )
     return EXIT_OK
+
+
+def _params(row: dict) -> str:
+    """`name=default, ...` of a row's parameters, or "none"."""
+    return (
+        ", ".join(f"{p}={_fmt_default(v['default'])}" for p, v in row["params"].items()) or "none"
+    )
 
 
 def _fmt_default(value) -> str:

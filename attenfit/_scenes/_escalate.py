@@ -25,7 +25,7 @@ from .._curves import AreaModel, get_area_model, list_area_models
 from .._errors import AttenfitError
 from .._fit import fit
 from .._judge import Contender, rank
-from .._shaders import LANGUAGES, area_compiled_cost, area_function_source
+from .._shaders import LANGUAGES, area_compiled_cost, function_source
 from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep
 from ._advice import pct
 from ._light_fits import LightData
@@ -74,7 +74,7 @@ class AreaEscalation:
     """What the area models do on a scene no family meets: `why` (no f(d) can, and where),
     `candidates` (passing by cost, then failing by error), `winner` (the cheapest within
     tolerance, or None), `closest` (the most accurate), `shaders` (the winner's function per
-    language, one per light)."""
+    language, one for every light: the radius is its argument `r`)."""
 
     why: str
     candidates: tuple[AreaCandidate, ...]
@@ -244,18 +244,15 @@ def _variants(
 
 
 def _shaders(winner: AreaCandidate, radii: Sequence[float]) -> dict[str, str]:
-    """The winner's function per language, one per light (`attenfit_area_light_<k>`)."""
+    """The winner's function per language (`attenfit_<model>`, one for every light: the
+    light's radius is its argument `r`), with the export's header and the scene's lines."""
     model = get_area_model(winner.model)(**(winner.params if winner.fitted else {}))
-    head = (
-        f"// attenfit area model {winner.model}{' (fitted)' if winner.fitted else ''}: "
-        f"max error {pct(winner.error)} over the scene's judged receivers\n"
-        "// inputs: d (to the light's centre), cos_r = n.l, cos_e (at the emitter), "
-        "cos_n = -n.m (a disk's axis m), g (the emitter factor); returns E / I\n"
-    )
-    out = {}
-    for lang in LANGUAGES:
-        parts = [head]
-        for k, r in enumerate(radii):
-            parts.append(area_function_source(model, lang, f"attenfit_area_light_{k}", r))
-        out[lang] = "\n".join(parts)
-    return out
+    lights = ", ".join(f"r = {r:.6g} (light {k})" for k, r in enumerate(radii))
+    fitted = " (fitted to it)" if winner.fitted else ""
+    notes = [
+        f"scene   : the area model recommended for this scene{fitted}: max error "
+        f"{pct(winner.error)} over its judged receivers",
+        f"lights  : {lights}; pass each light's radius as r",
+    ]
+    fname = f"attenfit_{model.name}"
+    return {lang: function_source(model, lang, fname, notes=notes)[0] for lang in LANGUAGES}

@@ -1,14 +1,16 @@
 """Stage 4, shaders: each family's shader form (`_forms`, in the expression language of `_ir`)
 and its stable form (a scalar program read from its jaxpr, `_trace`), printed as GLSL, HLSL,
-WGSL, C or CUDA (`_print`, `_stable`, `_export`); what they cost (`_cost`: the traced-operation
+WGSL, C or CUDA (`_print`, `_stable`, `_export`; an area model's shader form by `_area_export`); what they cost (`_cost`: the traced-operation
 estimate; `_compile`: real compilers) and how precise they are in float16 and float32
 (`_precision`).
 
 Imports the curves stage (and the fitting stage's results, by duck typing) and nothing above.
 """
 
+from ._area_export import area_source as area_source
+from ._area_exprs import area_export_form as area_export_form
+from ._area_exprs import area_function_source as area_function_source
 from ._area_forms import area_compiled_cost as area_compiled_cost
-from ._area_forms import area_function_source as area_function_source
 from ._compilers import Compiled as Compiled
 from ._compilers import CompiledCost as CompiledCost
 from ._compilers import CompilerError as CompilerError

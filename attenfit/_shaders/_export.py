@@ -1,6 +1,6 @@
-"""A (fitted) family as a self-contained GLSL, HLSL, WGSL, C or CUDA function.
+"""A (fitted) family or area model as a self-contained GLSL, HLSL, WGSL, C or CUDA function.
 
-Two forms (`FORMS`):
+A family's function is `float NAME(float d)`, in one of two forms (`FORMS`):
 
 * **shader** (the default): the family's shader form (`_forms`), the expression an engine
   ships or a person would write, printed with named temporaries (`_print`). A family with
@@ -15,24 +15,38 @@ read from uniforms (GLSL `uniform`, an HLSL `cbuffer`, a WGSL uniform-buffer str
 C and CUDA, passed as extra arguments. A header comment cites the family's source, the
 form's source (the engine's file and function), the parameters and, for a fit, its error;
 every text in it goes through `_text.comment_safe`.
+
+An area model's function (`_area_export`) is `float NAME(float d, float cos_r, float cos_e,
+float r, float cos_n, float g)`, its shader form only, with the same header plus its inputs
+and their units.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .._curves import Family
+from .._curves import AreaModel, Family, get_area_model, list_area_models, list_families
 from .._errors import BadValueError, UnknownNameError
 from .._version import __version__
+from ._area_export import area_source
 from ._forms import shader_form
 from ._model import load_model, param_value
 from ._print import print_form
 from ._program import UnsupportedPrimitiveError as UnsupportedPrimitiveError
 from ._stable import print_stable
-from ._text import LANGUAGES, check_function_name, comment_lines, float32_literal
+from ._text import (
+    LANGUAGES,
+    check_function_name,
+    comment_lines,
+    fit_summary,
+    float32_literal,
+    float32_param,
+)
 from ._trace import trace
 
 __all__ = ["FORMS", "LANGUAGES", "export", "function_source", "scalar_params"]
@@ -51,44 +65,93 @@ def export(
     family: str | None = None,
     form: str = "shader",
 ) -> str:
-    """A self-contained `lang` function `float name(float d)` evaluating the (fitted) family.
+    """A self-contained `lang` function evaluating the (fitted) family or area model.
 
     Parameters
     ----------
     model
         A `Family` (instance or class), a registered family name, a `FitResult`, a
-        `FitResult.to_dict()` dict, or the path of a FIT.json (see `load_model`).
+        `FitResult.to_dict()` dict, or the path of a FIT.json (see `load_model`); or an
+        `AreaModel` (instance or class), a registered area model's name, or a `FitResult`
+        of one.
     lang
         "glsl", "hlsl", "wgsl", "c" or "cuda" (a `__device__` function).
     uniforms
-        Read the parameters from uniforms (C and CUDA: extra float arguments after `d`)
-        instead of baking them in as float32 literals.
+        Read the parameters from uniforms (C and CUDA: extra float arguments after the
+        inputs) instead of baking them in as float32 literals.
     name
-        The function's name (an identifier); default `attenfit_<family>`.
+        The function's name (an identifier); default `attenfit_<family or model>`.
     params
         Parameter values that replace the model's (a fit's error no longer applies then
         and is not quoted).
     family
-        Which fit to export when `model` holds several (a FIT.json of many families).
+        Which fit to export when `model` holds several (a FIT.json of many families); not
+        for an area model.
     form
-        "shader" (the engines' expression, no guards) or "stable" (the JAX form).
+        "shader" (the engines' expression, no guards) or "stable" (the JAX form; a family's
+        only: an area model has its shader form alone).
 
     Returns
     -------
-    The source text; `d` is the distance from the light's centre and the result is the
-    attenuation in 1/length^2 (float32).
+    The source text. A family's function is `name(d)`, `d` the distance from the light's
+    centre, and returns the attenuation in 1/length^2; an area model's is
+    `name(d, cos_r, cos_e, r, cos_n, g)` (`attenfit.area.AreaInputs`) and returns `E / I`
+    in 1/length^2. Both in float32.
     """
     if lang not in LANGUAGES:
         raise UnknownNameError(f"unknown language {lang!r}; choose one of {list(LANGUAGES)}")
     if form not in FORMS:
         raise UnknownNameError(f"unknown form {form!r}; choose one of {list(FORMS)}")
-    fam, info = load_model(model, family=family)
+    fam, info = _resolve(model, family)
     if params:
         fam = fam.replace(**{k: param_value(v, k, "params") for k, v in params.items()})
         if info:
             info = {"note": "parameters overridden after the fit; its error does not apply"}
     fname = check_function_name(name if name is not None else f"attenfit_{fam.name}")
     return function_source(fam, lang, fname, form=form, uniforms=uniforms, info=info)[0]
+
+
+def _resolve(source: Any, family: str | None) -> tuple[Family | AreaModel, dict[str, Any]]:
+    """`load_model`, and area models: an instance or class, a registered name, a fit of one;
+    a name neither registry knows is refused naming both registries' names."""
+    area: AreaModel | None = None
+    info: dict[str, Any] = {}
+    if isinstance(source, AreaModel):
+        area = source
+    elif isinstance(source, type) and issubclass(source, AreaModel):
+        area = source()
+    elif isinstance(source, str) and not _path_like(source):
+        if source in list_area_models() and source not in list_families():
+            area = get_area_model(source)()
+        elif source not in list_families():
+            raise UnknownNameError(
+                f"unknown family {source!r} (nor area model); known families: "
+                f"{', '.join(list_families())}; area models: {', '.join(list_area_models())}"
+            )
+    elif isinstance(getattr(source, "model", None), AreaModel):  # a FitResult
+        area = source.model
+        info = {k: _plain(getattr(source, k)) for k in ("metrics", "loss", "converged")
+                if getattr(source, k, None) is not None}  # fmt: skip
+    if area is None:
+        return load_model(source, family=family)
+    if family is not None:
+        raise BadValueError(
+            f"family={family!r} (--family) picks one fit of a fit file; {area.name!r} is an "
+            "area model, not a fit file"
+        )
+    return area, info
+
+
+def _path_like(text: str) -> bool:
+    """Whether `load_model` reads `text` as a fit file's path (as it decides)."""
+    return text.endswith(".json") or os.sep in text or Path(text).exists()
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, Mapping):
+        return {str(k): _plain(v) for k, v in value.items()}
+    arr = np.asarray(value)
+    return arr.item() if arr.dtype.kind in "fiub" and arr.ndim == 0 else value
 
 
 def scalar_params(family: Family) -> dict[str, float]:
@@ -105,33 +168,8 @@ def scalar_params(family: Family) -> dict[str, float]:
     return out
 
 
-def float32_param(family: str, name: str, value: float) -> float:
-    """`value` as the float32 a shader computes with, refused (`BadValueError`) when it is
-    not finite there or rounds to 0 or a subnormal (which GPUs flush to 0)."""
-    x = (
-        np.float32(value)
-        if np.isfinite(value) and abs(value) <= float(_F32.max)
-        else np.float32(np.inf)
-    )
-    if not np.isfinite(x):
-        raise BadValueError(
-            f"parameter {name}={value!r} of {family!r} is not a finite float32 "
-            f"(float32 ends at {float(_F32.max):.3g}); a shader cannot hold it"
-        )
-    if value != 0 and abs(float(x)) < _F32.tiny:
-        raise BadValueError(
-            f"parameter {name}={value!r} of {family!r} rounds to {float(x):g} in float32 (normal "
-            f"float32 starts at {float(_F32.tiny):.3g}; GPUs flush smaller values to 0): the "
-            "shader would compute with 0; rescale the scene's units"
-        )
-    return float(x)
-
-
-_F32 = np.finfo(np.float32)
-
-
 def function_source(
-    family: Family,
+    family: Family | AreaModel,
     lang: str,
     fname: str,
     *,
@@ -139,14 +177,28 @@ def function_source(
     uniforms: bool = False,
     info: Mapping[str, Any] | None = None,
     header: bool = True,
+    notes: Sequence[str] = (),
 ) -> tuple[str, str]:
-    """(source text, the form printed): "shader", or "stable" where the family has none."""
+    """(source text, the form printed): "shader", or "stable" where the family has none.
+
+    `family` may be an `AreaModel` (`_area_export.area_source`): its shader form, the only
+    one it has. `notes` are more header lines (what a scene says of the function)."""
+    if isinstance(family, AreaModel):
+        if form != "shader":
+            raise BadValueError(
+                f"area model {family.name!r} has no stable form (form {form!r}, --form "
+                f"{form}, is a family's guarded JAX form): export its shader form"
+            )
+        text = area_source(
+            family, lang, fname, uniforms=uniforms, info=info, header=header, notes=notes
+        )
+        return text, "shader"
     sf = shader_form(family) if form == "shader" else None
     lines: list[str] = []
     if sf is not None:
         values = scalar_params(family)
         if header:
-            lines = _header(family, info or {}, lang, fname, uniforms, values, sf)
+            lines = _header(family, info or {}, lang, fname, uniforms, values, sf, notes=notes)
         text = print_form(sf, lang, fname, values, uniforms=uniforms, header=lines)
         return text, "shader"
     for p in family.param_names():
@@ -156,7 +208,7 @@ def function_source(
     if header:
         values = {p: (v[0] if prog.shapes[p] == () else list(v)) for p, v in prog.values.items()}
         lines = _header(
-            family, info or {}, lang, fname, uniforms, values, None, form, len(prog.ops)
+            family, info or {}, lang, fname, uniforms, values, None, form, len(prog.ops), notes
         )
     return print_stable(prog, lang, fname, uniforms=uniforms, header=lines), "stable"
 
@@ -171,6 +223,7 @@ def _header(
     sf: Any,
     asked: str = "shader",
     n_ops: int = 0,
+    notes: Sequence[str] = (),
 ) -> list[str]:
     def show(v: Any) -> str:
         if isinstance(v, list):
@@ -196,8 +249,9 @@ def _header(
         lines.append("form    : stable (attenfit's guarded form, read from the JAX code)")
     lines.append(f"params  : {shown} ({where})" if shown else "params  : none")
     if info:
-        fit = _fit_summary(dict(info))
+        fit = fit_summary(dict(info))
         lines += [f"fit     : {fit[0]}", *(f"          {line}" for line in fit[1:])]
+    lines += list(notes)
     if sf is not None:
         lines.append(
             f"Generated by attenfit {__version__}; `attenfit export --form stable` gives the "
@@ -213,25 +267,3 @@ def _header(
     if lang == "cuda":
         lines.append("A CUDA __device__ function (nvcc or NVRTC).")
     return comment_lines(lines)
-
-
-def _fit_summary(info: dict[str, Any]) -> list[str]:
-    """The fit's error (its error metrics, loss, convergence), configuration and file."""
-    errors = []
-    metrics = info.get("metrics") or {}
-    if isinstance(metrics, Mapping):
-        for key, value in metrics.items():
-            if "err" in key and isinstance(value, int | float) and not isinstance(value, bool):
-                errors.append(f"{key} = {value:.3g}")
-    if isinstance(info.get("loss"), int | float):
-        errors.append(f"loss = {info['loss']:.3g}")
-    if "converged" in info:
-        errors.append(f"converged = {info['converged']}")
-    lines = [", ".join(errors) or "(no error reported)"]
-    if "configuration" in info:
-        lines.append(f"fitted to {info['configuration']}")
-    if "file" in info:
-        lines.append(f"from {info['file']}")
-    if "note" in info:
-        lines.append(info["note"])
-    return lines

@@ -14,13 +14,22 @@ literals.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from .._errors import BadValueError
 
-__all__ = ["LANGUAGES", "comment_lines", "comment_safe", "float32_literal", "ident"]
+__all__ = [
+    "LANGUAGES",
+    "comment_lines",
+    "comment_safe",
+    "fit_summary",
+    "float32_literal",
+    "float32_param",
+    "ident",
+]
 
 #: The target languages of `export`.
 LANGUAGES = ("glsl", "hlsl", "wgsl", "c", "cuda")
@@ -73,6 +82,54 @@ def float32_literal(value: float) -> str:
             text += ".0"
     assert np.float32(text) == x or (x == 0 and float(text) == 0), (value, text)
     return text
+
+
+_F32 = np.finfo(np.float32)
+
+
+def float32_param(model: str, name: str, value: float) -> float:
+    """`value` as the float32 a shader computes with, refused (`BadValueError`) when it is
+    not finite there or rounds to 0 or a subnormal (which GPUs flush to 0)."""
+    x = (
+        np.float32(value)
+        if np.isfinite(value) and abs(value) <= float(_F32.max)
+        else np.float32(np.inf)
+    )
+    if not np.isfinite(x):
+        raise BadValueError(
+            f"parameter {name}={value!r} of {model!r} is not a finite float32 "
+            f"(float32 ends at {float(_F32.max):.3g}); a shader cannot hold it"
+        )
+    if value != 0 and abs(float(x)) < _F32.tiny:
+        raise BadValueError(
+            f"parameter {name}={value!r} of {model!r} rounds to {float(x):g} in float32 (normal "
+            f"float32 starts at {float(_F32.tiny):.3g}; GPUs flush smaller values to 0): the "
+            "shader would compute with 0; rescale the scene's units"
+        )
+    return float(x)
+
+
+# ----------------------------------------------------------------------------- header
+def fit_summary(info: Mapping[str, Any]) -> list[str]:
+    """A fit's header lines: its error (metrics, loss, convergence), configuration and file."""
+    errors = []
+    metrics = info.get("metrics") or {}
+    if isinstance(metrics, Mapping):
+        for key, value in metrics.items():
+            if "err" in key and isinstance(value, int | float) and not isinstance(value, bool):
+                errors.append(f"{key} = {value:.3g}")
+    if isinstance(info.get("loss"), int | float):
+        errors.append(f"loss = {info['loss']:.3g}")
+    if "converged" in info:
+        errors.append(f"converged = {info['converged']}")
+    lines = [", ".join(errors) or "(no error reported)"]
+    if "configuration" in info:
+        lines.append(f"fitted to {info['configuration']}")
+    if "file" in info:
+        lines.append(f"from {info['file']}")
+    if "note" in info:
+        lines.append(info["note"])
+    return lines
 
 
 # ----------------------------------------------------------------------------- identifiers
