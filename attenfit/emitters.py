@@ -1,10 +1,12 @@
-"""Lambertian area emitters (sphere, one- or two-sided disk, capsule) and the point light each
-stands in for. Implemented in `attenfit._truth._emitters`; docs/ground-truth.md.
+"""Lambertian area emitters (sphere, one- or two-sided disk, capsule, one-sided rectangle) and
+the point light each stands in for. Implemented in `attenfit._truth._emitters` and `_rect`;
+docs/ground-truth.md.
 """
 
 from ._truth import AbstractEmitter as AbstractEmitter
 from ._truth import CapsuleEmitter as CapsuleEmitter
 from ._truth import DiskEmitter as DiskEmitter
+from ._truth import RectEmitter as RectEmitter
 from ._truth import SphereEmitter as SphereEmitter
 from ._truth import emitter_from_dict as emitter_from_dict
 
@@ -12,6 +14,7 @@ __all__ = [
     "AbstractEmitter",
     "CapsuleEmitter",
     "DiskEmitter",
+    "RectEmitter",
     "SphereEmitter",
     "emitter_from_dict",
 ]

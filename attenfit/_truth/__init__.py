@@ -19,3 +19,4 @@ from ._emitters import emitter_from_dict as emitter_from_dict
 from ._geometry import area_inputs as area_inputs
 from ._geometry import area_irradiance as area_irradiance
 from ._irradiance import irradiance as irradiance
+from ._rect import RectEmitter as RectEmitter

@@ -33,6 +33,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter
+from ._rect import RectEmitter
 
 __all__ = [
     "CLEARANCE",
@@ -67,6 +68,8 @@ def _light_extent(emitter: AbstractEmitter) -> float:
     if isinstance(emitter, CapsuleEmitter):
         ends = np.abs(np.stack([np.asarray(emitter.a), np.asarray(emitter.b)], dtype=np.float64))
         return float(ends.max()) + r
+    if isinstance(emitter, RectEmitter):
+        return float(np.abs(np.asarray(emitter.corners(), dtype=np.float64)).max())
     return float(np.abs(np.asarray(emitter.reference_point(), dtype=np.float64)).max()) + r
 
 
@@ -79,11 +82,20 @@ def scene_scale(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:
 def surface_distance(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:
     """Distance (m) from each receiver (n, 3) to the light's surface (n,); 0 inside a solid light.
 
-    Sphere: `|p - c| - r`; capsule: distance to the segment minus r; disk: distance to the
-    nearest point of the (closed) disk.
+    Sphere: `|p - c| - r`; capsule: distance to the segment minus r; disk and rectangle:
+    distance to the nearest point of the (closed) shape.
     """
     p = np.asarray(points, dtype=np.float64)
     r = float(np.asarray(emitter.radius))
+    if isinstance(emitter, RectEmitter):
+        rel = p - np.asarray(emitter.center, dtype=np.float64)
+        z = rel @ np.asarray(emitter.normal, dtype=np.float64)
+        s = np.abs(rel @ np.asarray(emitter.tangent, dtype=np.float64)) - float(emitter.width) / 2
+        t = (
+            np.abs(rel @ np.asarray(emitter.bitangent, dtype=np.float64))
+            - float(emitter.height) / 2
+        )
+        return np.hypot(z, np.hypot(np.maximum(s, 0.0), np.maximum(t, 0.0)))
     if isinstance(emitter, DiskEmitter):
         c = np.asarray(emitter.center, dtype=np.float64)
         m = np.asarray(emitter.normal, dtype=np.float64)

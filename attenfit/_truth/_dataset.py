@@ -36,6 +36,7 @@ from ._emitters import (
     emitter_from_dict,
 )
 from ._irradiance import irradiance
+from ._rect import RectEmitter
 
 __all__ = [
     "FORMAT",
@@ -285,9 +286,13 @@ def _dtype(dtype: Any) -> np.dtype:
     return dt
 
 
+#: The flat emitters: no inside, receivers along their normal, on their lit side.
+FLAT = (DiskEmitter, RectEmitter)
+
+
 def _solid_radius(emitter: AbstractEmitter) -> float:
     """Distance from the reference point within which a receiver may be inside a solid emitter."""
-    return 0.0 if isinstance(emitter, DiskEmitter) else float(emitter.radius)
+    return 0.0 if isinstance(emitter, FLAT) else float(emitter.radius)
 
 
 def _check_reach(far: float, dtype: Any) -> None:
@@ -391,7 +396,7 @@ def facing_sweep(
     c = np.asarray(emitter.reference_point(), dtype=np.float64)
     if isinstance(emitter, SphereEmitter):
         direction = np.array([0.0, 0.0, -1.0])
-    elif isinstance(emitter, DiskEmitter):
+    elif isinstance(emitter, FLAT):
         direction = np.asarray(emitter.normal, dtype=np.float64)
     else:
         ab = np.asarray(emitter.b, dtype=np.float64) - np.asarray(emitter.a, dtype=np.float64)
@@ -483,7 +488,7 @@ def plane_receivers(
 
 def _inside(emitter: AbstractEmitter, pts: np.ndarray, margin: float = 1e-9) -> np.ndarray:
     """Receivers on or inside a solid emitter (with a relative `margin`, so float32 is safe)."""
-    if isinstance(emitter, DiskEmitter):
+    if isinstance(emitter, FLAT):
         return np.zeros(len(pts), dtype=bool)
     r = float(emitter.radius)
     if isinstance(emitter, SphereEmitter):
@@ -566,7 +571,7 @@ def random_receivers(
     else:
         target = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), pts.shape)
     l = (target - pts) / dp[:, None]
-    if isinstance(emitter, DiskEmitter):
+    if isinstance(emitter, FLAT):
         sin_a = np.sin(np.arctan(r / dp))
     else:
         sin_a = np.clip(r / dp, 0, 1)

@@ -16,6 +16,7 @@ Emitters are small immutable `eqx.Module`s (pytrees), so they pass through `jit`
 from __future__ import annotations
 
 import abc
+import inspect
 import math
 from collections.abc import Mapping
 from typing import Any, ClassVar
@@ -364,11 +365,18 @@ class CapsuleEmitter(AbstractEmitter):
         }
 
 
-_KINDS: dict[str, tuple[type[AbstractEmitter], tuple[str, ...], tuple[str, ...]]] = {
-    "sphere": (SphereEmitter, ("center", "radius"), ("intensity",)),
-    "disk": (DiskEmitter, ("center", "normal", "radius"), ("intensity", "two_sided")),
-    "capsule": (CapsuleEmitter, ("a", "b", "radius"), ("intensity",)),
-}
+def _kinds() -> dict[str, tuple[type[AbstractEmitter], tuple[str, ...], tuple[str, ...]]]:
+    """Every emitter class by its `kind`, with its constructor's required and optional keys."""
+    out = {}
+    stack = list(AbstractEmitter.__subclasses__())
+    while stack:
+        cls = stack.pop(0)
+        stack.extend(cls.__subclasses__())
+        params = list(inspect.signature(cls.__init__).parameters.values())[1:]
+        required = tuple(p.name for p in params if p.default is inspect.Parameter.empty)
+        optional = tuple(p.name for p in params if p.default is not inspect.Parameter.empty)
+        out[cls.kind] = (cls, required, optional)
+    return out
 
 
 def emitter_from_dict(data: Mapping[str, Any]) -> AbstractEmitter:
@@ -380,9 +388,10 @@ def emitter_from_dict(data: Mapping[str, Any]) -> AbstractEmitter:
     if not isinstance(data, Mapping):
         raise BadTypeError(f"an emitter description must be a dict, got {type(data).__name__}")
     kind = data.get("kind")
-    if not isinstance(kind, str) or kind not in _KINDS:
-        raise UnknownNameError(f"unknown emitter kind {kind!r}; allowed: {sorted(_KINDS)}")
-    cls, required, optional = _KINDS[kind]
+    kinds = _kinds()
+    if not isinstance(kind, str) or kind not in kinds:
+        raise UnknownNameError(f"unknown emitter kind {kind!r}; allowed: {sorted(kinds)}")
+    cls, required, optional = kinds[kind]
     missing = [k for k in required if k not in data]
     if missing:
         raise BadValueError(f"{kind} emitter description lacks {missing}")

@@ -25,6 +25,7 @@ from ._emitters import (
     _receivers,
     _safe_norm,
 )
+from ._rect import RectEmitter
 
 __all__ = ["area_inputs", "area_irradiance"]
 
@@ -41,7 +42,8 @@ def area_inputs(
     `cos_n = -n.m`, `g = max(0, cos_e)`; a two-sided disk is read from the face the receiver
     sees (`cos_e = |.|`, `m` flipped with it). Capsule: `d` and `l` to the closest point of
     its segment, `cos_e = 1`, `cos_n = cos_r`, `g` its projected-area factor
-    (`CapsuleEmitter.point_light`). A receiver at a disk's centre gets `d = 0` and cosines 0.
+    (`CapsuleEmitter.point_light`). A rectangle is read as a one-sided disk of its equal-area
+    radius. A receiver at a disk's centre gets `d = 0` and cosines 0.
     """
     if not isinstance(emitter, AbstractEmitter):
         raise BadTypeError(f"emitter must be an attenfit emitter, got {type(emitter).__name__}")
@@ -58,11 +60,11 @@ def area_inputs(
     cos_r = _dot(n, dv) / dsafe
     r = jnp.broadcast_to(jnp.asarray(emitter.radius).astype(dt), d.shape)
     one = jnp.ones_like(d)
-    if isinstance(emitter, DiskEmitter):
+    if isinstance(emitter, DiskEmitter | RectEmitter):  # a rectangle: a one-sided disk
         m = _bcast(emitter.normal, p)
         cos_e = -_dot(m, dv) / dsafe
         cos_n = -_dot(n, m)
-        if emitter.two_sided:
+        if getattr(emitter, "two_sided", False):
             flip = jnp.where(cos_e < 0, -one, one)
             cos_e, cos_n = cos_e * flip, cos_n * flip
         return AreaInputs(d, cos_r, cos_e, r, cos_n, jnp.maximum(cos_e, 0))

@@ -44,6 +44,7 @@ from ._emitters import (
     SphereEmitter,
     _receivers,
 )
+from ._rect import RectEmitter, rect_kernel
 
 __all__ = ["irradiance"]
 
@@ -426,6 +427,8 @@ def _kernel(
     if isinstance(emitter, CapsuleEmitter):
         a, b, r, I = (cast(x) for x in (emitter.a, emitter.b, emitter.radius, emitter.intensity))
         return lambda p, n: _capsule_one(a, b, r, I, p, n, nodes=capsule_nodes)
+    if isinstance(emitter, RectEmitter):
+        return rect_kernel(emitter, dtype)
     raise BadTypeError(
         f"emitter must be a SphereEmitter, DiskEmitter or CapsuleEmitter, got {type(emitter).__name__}"
     )
