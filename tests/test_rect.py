@@ -5,6 +5,7 @@ Gauss-Legendre panels and, at one receiver, by mpmath to 20 digits."""
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import jax
@@ -104,7 +105,7 @@ def _gl(lo: float, hi: float, at: float, z: float) -> tuple[np.ndarray, np.ndarr
     geometrically toward `at` (where the integrand peaks over a width z)."""
     cuts = [float(x) for x in _splits(lo, hi, at, z)]
     xs, ws = [], []
-    for a, b in zip(cuts[:-1], cuts[1:], strict=False):
+    for a, b in itertools.pairwise(cuts):
         xs.append((b - a) / 2 * _GL_X + (a + b) / 2)
         ws.append((b - a) / 2 * _GL_W)
     return np.concatenate(xs), np.concatenate(ws)
@@ -127,7 +128,7 @@ def _quad_irradiance(e: RectEmitter, p, n) -> float:
     cuts = [-hw, hw, *[-(al + ga * t) / be for t in (-hh, hh) if be != 0]]
     total = 0.0
     cuts = sorted(x for x in set(cuts) if -hw <= x <= hw)
-    for a, b in zip(cuts[:-1], cuts[1:], strict=False):
+    for a, b in itertools.pairwise(cuts):
         ss, ws = _gl(a, b, min(max(s0, a), b), z)
         for s, w in zip(ss, ws, strict=True):
             lo, hi, rest = -hh, hh, al + be * s

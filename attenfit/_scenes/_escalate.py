@@ -6,7 +6,7 @@ The point-light model `E = I g f(d) max(0, n.l)` has an angular error no `f(d)` 
 error (`|E_model - E_true| / max(E_true, error_floor * E_peak)`), fits the ones with free
 parameters to the scene (one parameter set for all its lights: a wrap amount is
 dimensionless), and recommends the cheapest one within tolerance by the compiled cost of
-its shader form (`attenfit._shaders.area_function_source`), saying why: the error of the light's
+its shader form (`attenfit._shaders.function_source`), saying why: the error of the light's
 exact facing curve `f*(d)` (the best any `f(d)` can do per distance) and where it is.
 Spot lights are not escalated (an area model has no spot profile).
 """
