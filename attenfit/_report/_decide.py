@@ -24,7 +24,7 @@ from .._judge import Ranking, rank
 from ._area_candidates import area_candidates
 from ._candidates import SET_LABELS, Candidate, judge
 from ._candidates import SETS as SETS  # the summary's order of the sets, as before
-from ._markdown import fmt_num, fmt_pct, md_row
+from ._markdown import fmt_num, fmt_pct, fmt_stops, md_row
 from ._metrics import GAP_BAND_LABELS, GAP_BANDS
 
 #: The tolerances of the decision table (largest |error| on the receivers that matter).
@@ -261,8 +261,8 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
         return ""
     lines = [
         md_row(["light", "distance from its surface", "tolerance", "cheapest model",
-                "parameters (r: the light's radius)", "max error", "cost", "why"]),
-        md_row(["---", "---", "---:", "---", "---", "---:", "---:", "---"]),
+                "parameters (r: the light's radius)", "max error", "in stops", "cost", "why"]),
+        md_row(["---", "---", "---:", "---", "---", "---:", "---:", "---:", "---"]),
     ]  # fmt: skip
     rows: list[list[Any]] = []  # consecutive tolerances with the same answer share a row
     for e in entries:
@@ -295,6 +295,7 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
                     same[2],
                     e["params"],
                     fmt_pct(e["error"]),
+                    fmt_stops(e["error"]),
                     fmt_num(e["cost"]),
                     same[5],
                 ]
@@ -304,7 +305,9 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
     note = (
         "The largest |error| of a model's irradiance over three receiver sets in each band "
         "(facing sweep, floors from contact to 10 r, random orientations; see the summary), "
-        "bands on the distance from the light's surface (d − r for a sphere, to the nearest point of a disk). "
+        "bands on the distance from the light's surface (d − r for a sphere, to the nearest point of a disk); "
+        "*in stops*: the most that error can be in stops, −log2(1 − error) (a stop is a "
+        "doubling of light; 0.1 stop is about the smallest step a viewer sees). "
         "Cheapest by the compiled shader cost"
         + (f" ({costs_label})" if costs_label else "")
         + "; ties go to the smaller error (errors equal to 3 digits: to the model with fewer "

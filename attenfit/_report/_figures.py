@@ -15,6 +15,7 @@ import numpy as np
 from .._curves import get_family
 from . import _plots as plots
 from ._cost_plot import plot_cost_vs_error
+from ._display import plot_display_models
 
 WINDOWED = ("smooth", "hard")
 
@@ -158,7 +159,8 @@ def _plane_errors(report, cfg):
 
 
 def _side_by_side(report, cfg):
-    """The truth once, three published models on its colour scale, and their error maps."""
+    """The truth once and three published models as displayed (one exposure), and their
+    errors in stops (`_display`)."""
     pl = cfg.plane
     models: dict[str, np.ndarray] = {}
     truth, label = pl.E, pl.truth_label
@@ -172,7 +174,7 @@ def _side_by_side(report, cfg):
             models[f"{fam} (published)"] = pl.weight * v
     if not models:
         return None
-    fig, _ = plots.plot_plane_models(
+    fig, _ = plot_display_models(
         truth, models, _in_r(pl.extent, cfg.radius), truth_label=label, unit="r"
     )
     fig.suptitle(f"{cfg.name} (r = {cfg.radius:g} m): {pl.description.split(';')[0]}", fontsize=10)

@@ -27,6 +27,18 @@ def fmt_num(x: Any, digits: int = 3, inf_text: str = "∞") -> str:
     return f"{x:.{digits}g}"
 
 
+def fmt_stops(rel: Any) -> str:
+    """The most stops (`log2` of the ratio) a relative error of at most `rel` can be off:
+    `-log2(1 - rel)`, the dark side (docs/report.md)."""
+    if rel is None or not math.isfinite(float(rel)):
+        return "—"
+    rel = float(rel)
+    if rel >= 1:
+        return "∞ stops"
+    s = -math.log2(1 - rel)
+    return f"{s:.2g} stops" if s >= 1e-3 else "< 0.001 stops"
+
+
 def fmt_pct(x: Any) -> str:
     if x is None:
         return "—"
