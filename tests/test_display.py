@@ -56,7 +56,7 @@ def test_stops_are_log2_ratios_and_bounds():
 def test_the_display_figure_draws_truth_models_and_stops():
     y, x = np.mgrid[-1:1:32j, -1:1:32j]
     truth = 1 / (x * x + y * y + 0.1)
-    fig, axes = plot_display_models(truth, {"half": truth / 2}, (-1, 1, -1, 1), unit="r")
+    _, axes = plot_display_models(truth, {"half": truth / 2}, (-1, 1, -1, 1), unit="r")
     assert axes.shape == (2, 2)
     assert "max 1 stops" in axes[1, 1].get_title()
     shown = axes[0, 1].images[0].get_array()
