@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._curves import AreaModel, Family
+from .._curves import Model
 from .._errors import BadTypeError, BadValueError
 from ._area_inputs import dataset_problem
 from ._compiled import compiled_solve
@@ -72,12 +72,7 @@ def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, ato
             for nm, shape in zip(spec.names, spec.shapes, strict=True)
         }
     if free is None:
-        if isinstance(model, AreaModel):
-            free = model.free_by_default()
-        elif isinstance(model, Family):
-            free = tuple(getattr(type(model), "default_free", ()))
-        else:
-            free = spec.names
+        free = tuple(type(model).default_free) if isinstance(model, Model) else spec.names
     n = target.shape[-1]
     free = validate_options(spec, values, free, loss, solver, max_steps, n, batch)
     dtype = dtype_of(d, target, *(() if weights is None else (weights,)))
@@ -102,7 +97,7 @@ def _aligned_empty(size: int, dtype: np.dtype) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- public API
 def fit(
-    model: Family | tuple,
+    model: Model | tuple,
     d: Float[ArrayLike, " n"],
     target: Float[ArrayLike, " n"],
     *,
@@ -159,7 +154,7 @@ def fit(
 
 
 def fit_many(
-    model: Family | tuple,
+    model: Model | tuple,
     d: Float[ArrayLike, "batch n"] | Float[ArrayLike, " n"],
     target: Float[ArrayLike, "batch n"],
     *,
@@ -195,7 +190,7 @@ def fit_many(
 
 
 def fit_dataset(
-    model: Family | tuple,
+    model: Model | tuple,
     dataset: Any,
     *,
     loss: str = "relative",
@@ -214,7 +209,7 @@ def fit_dataset(
     with stderr 0 in a partly noisy dataset get the smallest positive one). Other
     options as `fit`; a `weights` option multiplies these.
     """
-    if isinstance(model, AreaModel):
+    if isinstance(model, Model) and type(model).inputs:  # receivers' geometry, not distances
         user_w = options.pop("weights", None)
         if user_w is not None:
             user_w = float_array("weights", user_w).reshape(-1)

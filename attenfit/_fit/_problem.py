@@ -185,7 +185,7 @@ def build_problem(spec: Spec, free, loss, solver_obj, max_steps, guess, rtol, at
             if scaled:
                 cands.append(scaled)
             lin = linear_candidate(
-                spec.family or "",
+                spec.inverse_linear,
                 values,
                 free,
                 kinds,
