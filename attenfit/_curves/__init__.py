@@ -42,6 +42,7 @@ from ._area import PointLight as PointLight
 from ._area import cone_cosine as cone_cosine
 from ._area import get_area_model as get_area_model
 from ._area import list_area_models as list_area_models
+from ._area import point_light_class as point_light_class
 from ._area import register_area_model as register_area_model
 from ._area_models import SnyderSphere as SnyderSphere
 from ._area_models import FrostbiteDisk as FrostbiteDisk
