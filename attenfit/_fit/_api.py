@@ -209,12 +209,21 @@ def fit_dataset(
     with stderr 0 in a partly noisy dataset get the smallest positive one). Other
     options as `fit`; a `weights` option multiplies these.
     """
-    if isinstance(model, Model) and type(model).inputs:  # receivers' geometry, not distances
-        user_w = options.pop("weights", None)
-        if user_w is not None:
-            user_w = float_array("weights", user_w).reshape(-1)
-        x, target, w = dataset_problem(model, dataset, loss, user_w)
-        return fit(model, x, target, loss=loss, weights=w, **options)
+    user_w = options.pop("weights", None)
+    if user_w is not None:
+        user_w = float_array("weights", user_w).reshape(-1)
+    # the samples the model reads (`Model.inputs`): receivers' geometry, or distances
+    inputs = type(model).inputs if isinstance(model, Model) else 0
+    problem = dataset_problem if inputs else _distance_problem
+    x, target, weights = problem(model, dataset, loss, user_w)
+    return fit(model, x, target, loss=loss, weights=weights, **options)
+
+
+def _distance_problem(
+    model: Any, dataset: Any, loss: str, user_w: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """`(d, target, weights)` that fit the point-light model `E = weight * f(d)` to a
+    dataset's irradiance (see `fit_dataset`)."""
     try:
         d = np.asarray(dataset.distance())
         wgt = np.asarray(dataset.weight())
@@ -228,9 +237,7 @@ def fit_dataset(
     keep = (wgt > 0) & np.isfinite(wgt)
     if not keep.any():
         raise BadValueError("no receiver in the dataset sees the light (every weight is 0)")
-    user_w = options.pop("weights", None)
     if user_w is not None:
-        user_w = float_array("weights", user_w).reshape(-1)
         if user_w.shape != E.shape:
             raise BadValueError(
                 f"weights has shape {user_w.shape}, the dataset has {E.shape[0]} receivers"
@@ -255,4 +262,4 @@ def fit_dataset(
     if user_w is not None:
         w = w * user_w[keep]
     weights = None if np.all(w == 1) else w
-    return fit(model, d, target, loss=loss, weights=weights, **options)
+    return d, target, weights

@@ -45,7 +45,7 @@ class Spec:
     leaves_are_params: bool = False
     #: rows of `d` (an area model's inputs, `_area`); 0: `d` is a vector of distances
     inputs: int = 0
-    #: `1/f` linear in some parameters (`Family.inverse_linear`): the linear start
+    #: `1/f` linear in some parameters (`Model.inverse_linear`): the linear start
     inverse_linear: Any = dataclasses.field(default=None, compare=False)
 
 
