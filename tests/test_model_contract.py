@@ -135,7 +135,7 @@ def test_a_point_light_has_its_familys_facts(fam):
     assert cls.default_free == fam.default_free
     assert cls.length_params == fam.length_params
     assert dict(cls.constraints) == dict(fam.constraints)
-    assert cls.describe()["params_class"] == fam.name
+    assert cls.describe()["family"] == fam.name
     assert pl.params().keys() == fam().params().keys()
 
 

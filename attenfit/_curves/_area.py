@@ -18,8 +18,8 @@ An area model predicts `E / I` from the geometry the engines' area-light code re
   so that a capsule is shaded as the sphere at its closest point, as the point light is.
 
 The distance families are the special case `PointLight(family)`: `g f(d) max(0, cos_r)`.
-Every model is a final `eqx.Module` whose fields are its parameters, registered by name,
-`jit`-, `vmap`- and `grad`-able, in the dtype of `d`.
+Every model is a final `eqx.Module` (a `Model`, `_model_base`) whose fields are its
+parameters, registered by name, `jit`-, `vmap`- and `grad`-able, in the dtype of `d`.
 """
 
 import abc
@@ -300,7 +300,6 @@ class PointLight(AreaModel, metaclass=_PointLightMeta):
     light = "any"
     exact = "a sphere wholly above the horizon, with f = 1/d^2"
     params_field = "family"
-    described = ("light", "exact", "params_class")
 
     def __init__(self, family: Family | None = None):
         want = type(self).params_class

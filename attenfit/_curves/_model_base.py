@@ -126,9 +126,10 @@ class Model(eqx.Module):
 
     @classmethod
     def describe(cls) -> dict[str, Any]:
-        """Name, formula, source, parameters with defaults and constraints, and the class's
-        other facts (`described`)."""
-        return {
+        """Name, formula, source, parameters with defaults and constraints, the class's
+        other facts (`described`), and where the parameters live (`params_field`: the name
+        of its model, e.g. ``{"family": "yuksel"}``)."""
+        out = {
             "name": cls.name,
             "formula": cls.formula,
             "source": cls.source,
@@ -139,6 +140,9 @@ class Model(eqx.Module):
             "default_free": list(cls.default_free),
             **{k: _plain_fact(getattr(cls, k)) for k in cls.described},
         }
+        if cls.params_field is not None:
+            out[cls.params_field] = cls.params_class.name
+        return out
 
     @classmethod
     def check_class(cls) -> None:
@@ -249,9 +253,5 @@ def _plain(value: Any) -> Any:
 
 
 def _plain_fact(value: Any) -> Any:
-    """A JSON-friendly copy of a class fact (tuples as lists, classes by their `name`)."""
-    if isinstance(value, tuple):
-        return list(value)
-    if isinstance(value, type):
-        return getattr(value, "name", value.__name__)
-    return value
+    """A JSON-friendly copy of a class fact (tuples as lists)."""
+    return list(value) if isinstance(value, tuple) else value
