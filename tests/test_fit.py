@@ -15,7 +15,8 @@ import numpy as np
 import pytest
 
 import attenfit as af
-from attenfit._fit import _api, _compile, _problem
+from attenfit._fit import _api, _problem
+from attenfit._fit import _compiled as _compile
 from attenfit.cli import main
 
 N = 256

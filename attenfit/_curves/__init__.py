@@ -1,4 +1,4 @@
-"""Stage 1, the curves: the `Family` base and registry, the parts every family is built from,
+"""Stage 1, the curves: the `Model` base, the `Family` base and registry, the parts every family is built from,
 the named families, and the spot falloffs.
 
 Imports nothing from the other stages. The named families register themselves on import,
@@ -7,7 +7,8 @@ in the order `list_families()` reports them.
 
 # The named families register themselves on import, in this order (the order of
 # `list_families()`, of reports and tables): keep the imports unsorted.
-from ._family import CONSTRAINTS as CONSTRAINTS
+from ._model_base import CONSTRAINTS as CONSTRAINTS
+from ._model_base import Model as Model
 from ._family import Family as Family
 from ._family import family_from_function as family_from_function
 from ._family import float32_family as float32_family
@@ -41,6 +42,7 @@ from ._area import PointLight as PointLight
 from ._area import cone_cosine as cone_cosine
 from ._area import get_area_model as get_area_model
 from ._area import list_area_models as list_area_models
+from ._area import point_light_class as point_light_class
 from ._area import register_area_model as register_area_model
 from ._area_models import SnyderSphere as SnyderSphere
 from ._area_models import FrostbiteDisk as FrostbiteDisk

@@ -18,14 +18,13 @@ An area model predicts `E / I` from the geometry the engines' area-light code re
   so that a capsule is shaded as the sphere at its closest point, as the point light is.
 
 The distance families are the special case `PointLight(family)`: `g f(d) max(0, cos_r)`.
-Every model is a final `eqx.Module` whose fields are its parameters, registered by name,
-`jit`-, `vmap`- and `grad`-able, in the dtype of `d`.
+Every model is a final `eqx.Module` (a `Model`, `_model_base`) whose fields are its
+parameters, registered by name, `jit`-, `vmap`- and `grad`-able, in the dtype of `d`.
 """
 
 import abc
-import dataclasses
+import functools
 import math
-from collections.abc import Mapping
 from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
@@ -35,7 +34,8 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from . import _parts as parts
-from ._family import CONSTRAINTS, Family, _check_param, _param_fields, _plain
+from ._family import Family
+from ._model_base import Model
 from ._softened import InverseSquare
 
 __all__ = [
@@ -46,6 +46,7 @@ __all__ = [
     "cone_cosine",
     "get_area_model",
     "list_area_models",
+    "point_light_class",
     "register_area_model",
 ]
 
@@ -153,35 +154,25 @@ def contact_distance(d: Real, r: Real) -> Real:
 
 
 # ----------------------------------------------------------------------------- the base
-class AreaModel(eqx.Module):
+class AreaModel(Model):
     """An area-light irradiance model: `E / I` from the receiver geometry (`AreaInputs`).
 
-    Subclasses are final: parameters as fields with defaults, the class variables below, and
-    `irradiance`. Calling a model, `model(d, cos_r, cos_e, r, cos_n=None, g=None)`, fills the
-    defaults (`cos_n`: the receiver's normal turned toward the light's axis in the plane of
-    `l` and the axis, `cos(theta_r - theta_e)`; `g`: `max(0, cos_e)`), broadcasts, and
-    returns `E / I` in 1/length^2 in the dtype of `d`.
+    Subclasses are final: parameters as fields with defaults, the class variables below (and
+    `Model`'s), and `irradiance`. Calling a model, `model(d, cos_r, cos_e, r, cos_n=None,
+    g=None)`, fills the defaults (`cos_n`: the receiver's normal turned toward the light's
+    axis in the plane of `l` and the axis, `cos(theta_r - theta_e)`; `g`: `max(0, cos_e)`),
+    broadcasts, and returns `E / I` in 1/length^2 in the dtype of `d`.
     """
 
-    #: Registry name, e.g. ``"snyder_sphere"``.
-    name: eqx.AbstractClassVar[str]
-    #: The formula as text.
-    formula: eqx.AbstractClassVar[str]
-    #: Citation: the engine's file and function, or the paper.
-    source: eqx.AbstractClassVar[str]
-    #: Parameters a fit frees by default.
-    default_free: eqx.AbstractClassVar[tuple[str, ...]]
+    kind = "area model"
+    inputs = len(AREA_INPUTS)
+    described = ("light", "exact")
+
     #: The lights it is written for: "sphere" (spheres, and capsules at their closest point
     #: times `g`), "disk", or "any".
     light: ClassVar[str] = "sphere"
     #: Where it is exact, in words ("" where nowhere).
     exact: ClassVar[str] = ""
-    #: Parameter -> constraint kind (`attenfit.Family.constraints`); default "positive".
-    constraints: ClassVar[Mapping[str, str]] = {}
-
-    def __check_init__(self):
-        for name, value in zip(self.param_names(), self.param_leaves(), strict=True):
-            _check_param(self.name, name, value, self.constraint(name))
 
     @abc.abstractmethod
     def irradiance(self, d: Real, cos_r: Real, cos_e: Real, r: Real, cos_n: Real, g: Real) -> Real:
@@ -210,65 +201,6 @@ class AreaModel(eqx.Module):
         """`E / I` from the stacked inputs (`AreaInputs.stack()`), rows in `AREA_INPUTS` order."""
         x = jnp.asarray(x)
         return self(x[0], x[1], x[2], x[3], x[4], x[5])
-
-    # ------------------------------------------------------------------ parameters
-    @classmethod
-    def param_names_of(cls) -> tuple[str, ...]:
-        """The parameter names of the class (its non-static fields)."""
-        return tuple(f.name for f in _param_fields(cls))
-
-    def param_names(self) -> tuple[str, ...]:
-        """The parameter names, in field order."""
-        return type(self).param_names_of()
-
-    def params(self) -> dict[str, Any]:
-        """The parameter values, by name."""
-        return {n: getattr(self, n) for n in self.param_names()}
-
-    def param_leaves(self) -> list[Any]:
-        """The parameter values as the model's own leaves (what `eqx.tree_at` replaces)."""
-        return [getattr(self, n) for n in self.param_names()]
-
-    def constraint(self, param: str) -> str:
-        """The constraint of `param` ("positive" unless `constraints` says otherwise)."""
-        if param not in self.param_names():
-            raise UnknownNameError(
-                f"area model {self.name!r} has no parameter {param!r}; it has {list(self.param_names())}"
-            )
-        return type(self).constraints.get(param, "positive")
-
-    def length_params(self) -> tuple[str, ...]:
-        """Parameters with units of length (the fit's scale candidates move them together)."""
-        return ()
-
-    def free_by_default(self) -> tuple[str, ...]:
-        """The parameters a fit frees when the caller does not say (`default_free`)."""
-        return tuple(type(self).default_free)
-
-    def replace(self, **values: Any) -> "AreaModel":
-        """A copy with some parameters replaced."""
-        names = self.param_names()
-        for key in values:
-            if key not in names:
-                raise UnknownNameError(
-                    f"area model {self.name!r} has no parameter {key!r}; it has {list(names)}"
-                )
-        return dataclasses.replace(self, **values)
-
-    def describe(self) -> dict[str, Any]:
-        """Name, formula, source, light, where exact, parameters with defaults and constraints."""
-        return {
-            "name": self.name,
-            "formula": self.formula,
-            "source": self.source,
-            "light": self.light,
-            "exact": self.exact,
-            "params": {
-                p: {"default": _plain(v), "constraint": self.constraint(p)}
-                for p, v in self.params().items()
-            },
-            "default_free": list(self.free_by_default()),
-        }
 
 
 def _call(model: AreaModel, d, cos_r, cos_e, r, cos_n, g):
@@ -300,11 +232,7 @@ def register_area_model(cls: type[AreaModel]) -> type[AreaModel]:
         raise BadValueError(f"area model {cls.__name__} needs a `name` that is an identifier")
     if name in _REGISTRY and _REGISTRY[name] is not cls:
         raise BadValueError(f"an area model named {name!r} is registered already")
-    for kind in cls.constraints.values():
-        if kind not in CONSTRAINTS:
-            raise BadValueError(
-                f"area model {name!r}: constraint {kind!r} is not one of {CONSTRAINTS}"
-            )
+    cls.check_class()
     if cls.light not in ("sphere", "disk", "any"):
         raise BadValueError(f"area model {name!r}: light must be sphere, disk or any")
     cls()  # constructs with no arguments
@@ -330,8 +258,27 @@ def get_area_model(name: str) -> type[AreaModel]:
 
 
 # ----------------------------------------------------------------------------- point light
-@register_area_model
-class PointLight(AreaModel):
+_ModuleMeta = type(eqx.Module)
+
+
+class _PointLightMeta(_ModuleMeta):
+    """`PointLight(family)` builds the point-light model of `type(family)`: one final class
+    per family class, whose class facts are the family's (`point_light_class`)."""
+
+    def __call__(cls, family: Family | None = None):
+        target = cls
+        if cls is PointLight:
+            if family is None:
+                family = InverseSquare()
+            if not isinstance(family, Family):
+                raise BadTypeError(
+                    f"PointLight takes a Family instance, got {type(family).__name__}"
+                )
+            target = point_light_class(type(family))
+        return _ModuleMeta.__call__(target, family)
+
+
+class PointLight(AreaModel, metaclass=_PointLightMeta):
     """The point-light model as an area model: `E / I = g f(d) max(0, cos_r)`.
 
     Every distance family is this special case: its angular part is `max(0, n.l)` times the
@@ -339,6 +286,10 @@ class PointLight(AreaModel):
     `InverseSquare()`, the exact facing curve of a sphere); it is exact wherever the light
     is wholly above the horizon and `f` is the light's exact facing attenuation at that
     receiver's orientation (a sphere: any such receiver; a disk: coaxial facing ones).
+
+    Abstract: `PointLight(family)` is an instance of `point_light_class(type(family))`, a
+    final class whose facts (parameters, constraints, `default_free`, `length_params`) are
+    the family class's, read through `params_field = "family"`.
     """
 
     family: Family
@@ -346,40 +297,40 @@ class PointLight(AreaModel):
     name = "point_light"
     formula = "g f(d) max(0, cos_r)"
     source = "the point-light model (docs/architecture.md, Conventions; RTR4 eq. 5.11-5.14)"
-    default_free = ()
     light = "any"
     exact = "a sphere wholly above the horizon, with f = 1/d^2"
+    params_field = "family"
+
+    def __init__(self, family: Family | None = None):
+        want = type(self).params_class
+        if family is None:
+            family = want()
+        if type(family) is not want:
+            raise BadTypeError(
+                f"{type(self).__name__} takes a {want.__name__} instance, got "
+                f"{type(family).__name__}"
+            )
+        self.family = family
 
     def irradiance(self, d, cos_r, cos_e, r, cos_n, g):
         return g * self.family(d).astype(d.dtype) * jnp.maximum(cos_r, 0)
 
-    def __init__(self, family: Family | None = None):
-        if family is None:
-            family = InverseSquare()
-        if not isinstance(family, Family):
-            raise BadTypeError(f"PointLight takes a Family instance, got {type(family).__name__}")
-        self.family = family
 
-    def param_names(self) -> tuple[str, ...]:
-        return self.family.param_names()
+@functools.cache
+def point_light_class(family: type[Family]) -> type[PointLight]:
+    """The final `PointLight` class of a family class: the family's facts, as class facts."""
+    namespace = {
+        "params_class": family,
+        "default_free": tuple(family.default_free),
+        "constraints": dict(family.constraints),
+        "length_params": tuple(family.length_params),
+        "units": dict(family.units),
+        "__module__": family.__module__,
+        "__doc__": f"`PointLight` of `{family.__name__}` ({family.name}).",
+    }
+    cls = _PointLightMeta(f"PointLight[{family.__name__}]", (PointLight,), namespace)
+    cls.__qualname__ = f"PointLight[{family.__qualname__}]"
+    return cls
 
-    def param_leaves(self) -> list[Any]:
-        return [getattr(self.family, n) for n in self.param_names()]
 
-    def constraint(self, param: str) -> str:
-        return self.family.constraint(param)
-
-    def length_params(self) -> tuple[str, ...]:
-        return tuple(self.family.length_params)
-
-    def params(self) -> dict[str, Any]:
-        return self.family.params()
-
-    def replace(self, **values: Any) -> "PointLight":
-        return PointLight(self.family.replace(**values))
-
-    def free_by_default(self) -> tuple[str, ...]:
-        return tuple(self.family.default_free)
-
-    def describe(self) -> dict[str, Any]:
-        return {**super().describe(), "family": self.family.name}
+register_area_model(point_light_class(InverseSquare))

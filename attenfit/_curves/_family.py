@@ -1,7 +1,6 @@
-"""The abstract `Family` base and the registry of named families."""
+"""The abstract `Family` (a `Model` of the distance alone) and the registry of named families."""
 
 import abc
-import dataclasses
 import functools
 import inspect
 from collections.abc import Callable, Mapping
@@ -14,6 +13,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
+from . import _parts as parts
+from ._model_base import Model
 
 __all__ = [
     "Family",
@@ -27,11 +28,19 @@ __all__ = [
     "register_family",
 ]
 
-#: The kinds of constraint a parameter can carry (see `Family.constraints`).
-CONSTRAINTS = ("positive", "nonnegative", "unit", "real")
+#: How a light's range R (the centre distance where the curve reaches 0 for good) sets the
+#: parameter `Family.range_tie` names, where it is not R itself (`range_param`): the value
+#: from (R, r) and R from (value, r), `r` the family's `r` parameter (the light's radius).
+RANGE_TIES: dict[str, tuple[Callable[[Any, Any], Any], Callable[[Any, Any], Any]]] = {
+    # measured from the light's surface: p = R - r (Madams 2011b's d_max)
+    "surface": (lambda R, r: R - r, lambda p, r: r + p),
+    # an irradiance cutoff relative to the value at the surface, a = r^2/d^2 reaching p at
+    # d = R: p = (r/R)^2 (Madams 2011's scale and bias)
+    "cutoff": (lambda R, r: (r / R) ** 2, lambda p, r: r / jnp.sqrt(p)),
+}
 
 
-class Family(eqx.Module):
+class Family(Model):
     """A differentiable, parameterised attenuation curve `f(d)`, in 1/length^2.
 
     `d` is the distance from the light's centre (docs/architecture.md, Conventions). A point light of
@@ -42,185 +51,70 @@ class Family(eqx.Module):
     arguments.
 
     Subclasses are final: they declare their parameters as fields with defaults, the class
-    variables below, and `__call__`.
+    variables below (and `Model`'s), and `__call__`.
     """
 
-    #: Registry name, e.g. ``"yuksel"``.
-    name: eqx.AbstractClassVar[str]
-    #: The formula as text, in the stable form the code evaluates.
-    formula: eqx.AbstractClassVar[str]
-    #: Citation: paper and equation, or engine file and function.
-    source: eqx.AbstractClassVar[str]
-    #: Parameters a fit frees when the caller does not say (`fit(..., free=None)`).
-    default_free: eqx.AbstractClassVar[tuple[str, ...]]
+    kind = "family"
+    inputs = 0
+    described = (
+        "singular", "range_param", "window", "monotone", "tends_to_inverse_square",
+        "length_params",
+    )  # fmt: skip
 
     # Declared properties, checked for every family by the generic test suite.
-    #: Parameter -> one of "positive" (the default), "nonnegative" (0 allowed and reachable
-    #: by a fit), "unit" (strictly between 0 and 1), "real" (unconstrained).
-    constraints: ClassVar[Mapping[str, str]] = {}
     #: True for the two honestly singular families (`inverse_square`, `gltf_range`).
     singular: ClassVar[bool] = False
-    #: Name of the parameter at which the curve reaches 0 (a window's range), if any.
-    range_param: ClassVar[str | None] = None
     #: "smooth": value and slope reach 0 at the range; "hard": the value does; "none".
     window: ClassVar[str] = "none"
     #: Non-increasing in `d` for every parameter value.
     monotone: ClassVar[bool] = True
     #: `f(d) * d^2 -> 1` as `d / (length scale) -> inf` (physically motivated families).
     tends_to_inverse_square: ClassVar[bool] = False
-    #: Parameters with units of length: under d -> s d and p -> s p for each of them, the
-    #: curve scales as f -> f / s^2 (or is unchanged for a family with a free `scale`).
-    length_params: ClassVar[tuple[str, ...]] = ()
-    #: Powers of length of the other dimensional parameters (e.g. ``{"eps": 2}`` for an area,
-    #: ``{"scale": -2}`` for a free scale in 1/length^2); unlisted ones are dimensionless.
-    units: ClassVar[Mapping[str, int]] = {}
     #: True when the curve obeys the scale law exactly: under d -> s d and every parameter
     #: p -> s^(its length power) p, f -> f / s^2. False for families with a hard-coded absolute
     #: length (Godot's 1e-4 m clamp, three.js's 0.01 floor) or fixed knots (`spline`).
     scale_covariant: ClassVar[bool] = False
-
-    def __check_init__(self):
-        """Refuse concrete parameter values that break their constraint (tracers pass)."""
-        defaults = self.defaults()
-        for name in self.param_names():
-            value = getattr(self, name)
-            _check_param(type(self).name, name, value, self.constraint(name))
-            _check_shape(type(self).name, name, value, defaults[name])
+    #: `(parameter, rule)`: the parameter a light's range sets where it is not the range
+    #: itself, and how (a rule of `RANGE_TIES`); None: `range_param` is the range.
+    range_tie: ClassVar[tuple[str, str] | None] = None
+    #: Parameter -> `(c, k)`: "as published" for a light of radius r the parameter is c r^k
+    #: (a light's radius `r`: ``(1.0, 1)``); unlisted parameters keep their defaults.
+    at_radius: ClassVar[Mapping[str, tuple[float, int]]] = {}
+    #: The parameter holding `ln f` at the static `knots` of an authored curve (`spline`):
+    #: no published values; a light's start is a facing disk's curve there.
+    knots_param: ClassVar[str | None] = None
 
     @abc.abstractmethod
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         """Evaluate `f(d)`."""
 
+    def evaluate(self, x: Float[ArrayLike, " n"]) -> Float[Array, " n"]:
+        """`f(d)` at the samples' distances (what a fit evaluates)."""
+        return self(x)
+
+    @classmethod
+    def range_setter(cls) -> str | None:
+        """The parameter a light's range sets (`range_tie`'s, else `range_param`), or None."""
+        return cls.range_param if cls.range_tie is None else cls.range_tie[0]
+
+    @classmethod
+    def range_value(cls, R: Any, r: Any) -> Any:
+        """The value of `range_setter()` for a range R (centre distance) and radius r."""
+        return R if cls.range_tie is None else RANGE_TIES[cls.range_tie[1]][0](R, r)
+
     def range_distance(self) -> Any:
         """The centre distance at which the curve reaches 0 for good, or None (no range).
 
-        The value of `range_param` unless a family says otherwise (Madams' warped families
-        measure their `d_max` from the light's surface, `madams_cutoff` derives its range).
+        The value of `range_param`, or what `range_tie` derives it from (Madams' warped
+        families measure their `d_max` from the light's surface, `madams_cutoff` has an
+        irradiance cutoff).
         """
-        return None if self.range_param is None else getattr(self, self.range_param)
-
-    @classmethod
-    def length_power(cls, param: str) -> int:
-        """The power of length in the unit of `param` (1 for `length_params`, else `units`)."""
-        cls.constraint(param)  # raises on an unknown name
-        return 1 if param in cls.length_params else int(cls.units.get(param, 0))
-
-    @classmethod
-    def param_names(cls) -> tuple[str, ...]:
-        """The parameter names, in field order (static fields are options, not parameters)."""
-        return tuple(f.name for f in _param_fields(cls))
-
-    @classmethod
-    def defaults(cls) -> dict[str, Any]:
-        """The default parameter values."""
-        return {
-            f.name: f.default if f.default is not dataclasses.MISSING else f.default_factory()
-            for f in _param_fields(cls)
-        }
-
-    @classmethod
-    def constraint(cls, param: str) -> str:
-        """The constraint of `param` ("positive" unless `constraints` says otherwise)."""
-        if param not in cls.param_names():
-            raise UnknownNameError(
-                f"family {cls.name!r} has no parameter {param!r}; it has {list(cls.param_names())}"
-            )
-        return cls.constraints.get(param, "positive")
-
-    def params(self) -> dict[str, Any]:
-        """The parameter values, by name."""
-        return {name: getattr(self, name) for name in self.param_names()}
-
-    def replace(self, **values: Any) -> "Family":
-        """A copy with some parameters replaced."""
-        names = self.param_names()
-        for key in values:
-            if key not in names:
-                raise UnknownNameError(
-                    f"family {self.name!r} has no parameter {key!r}; it has {list(names)}"
-                )
-        return dataclasses.replace(self, **values)
-
-    @classmethod
-    def describe(cls) -> dict[str, Any]:
-        """Name, formula, source, parameters with defaults and constraints, and properties."""
-        return {
-            "name": cls.name,
-            "formula": cls.formula,
-            "source": cls.source,
-            "params": {
-                p: {"default": _plain(v), "constraint": cls.constraint(p)}
-                for p, v in cls.defaults().items()
-            },
-            "default_free": list(cls.default_free),
-            "singular": cls.singular,
-            "range_param": cls.range_param,
-            "window": cls.window,
-            "monotone": cls.monotone,
-            "tends_to_inverse_square": cls.tends_to_inverse_square,
-            "length_params": list(cls.length_params),
-        }
-
-
-def _check_param(family: str, name: str, value: Any, kind: str) -> None:
-    """Raise BadValueError/BadTypeError if a concrete parameter value breaks `kind`."""
-    if isinstance(value, jax.core.Tracer):
-        return
-    try:
-        arr = np.asarray(value)
-    except Exception:
-        return  # an unusual leaf (e.g. an abstract placeholder): the maths will tell
-    if arr.dtype == object or not (
-        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
-    ):
-        raise BadTypeError(
-            f"family {family!r}: parameter {name!r} must be a real number or array, got {value!r}"
-        )
-    arr = arr.astype(np.float64)
-    if np.any(np.isnan(arr)):
-        raise BadValueError(f"family {family!r}: parameter {name!r} must be a number, got NaN")
-    if np.any(np.isinf(arr)):
-        # engines read "no range" as the curve without its window (three.js distance = 0,
-        # Filament falloff(0)); the windowed forms give NaN or 0 at inf, so say it instead
-        raise BadValueError(
-            f"family {family!r}: parameter {name!r} must be finite, got {arr.max():g}; for a "
-            "light without a range, use a family without a window (e.g. inverse_square)"
-        )
-    bad = None
-    if kind == "positive" and np.any(arr <= 0):
-        bad = "> 0"
-    elif kind == "nonnegative" and np.any(arr < 0):
-        bad = ">= 0"
-    elif kind == "unit" and np.any((arr <= 0) | (arr >= 1)):
-        bad = "strictly between 0 and 1"
-    if bad is not None:
-        shown = arr.item() if arr.ndim == 0 else arr.tolist()
-        raise BadValueError(f"family {family!r}: parameter {name!r} must be {bad}, got {shown}")
-
-
-def _check_shape(family: str, name: str, value: Any, default: Any) -> None:
-    """A parameter with a vector default (a spline's knots) keeps that length (a batch may
-    add leading axes)."""
-    try:
-        want, got = np.shape(default), np.shape(value)
-    except Exception:
-        return  # an unusual leaf (an abstract placeholder): the maths will tell
-    if want and got[len(got) - len(want) :] != want:
-        raise BadValueError(
-            f"family {family!r}: parameter {name!r} must have shape {want} (or a batch of "
-            f"them), got shape {got}"
-        )
-
-
-def _param_fields(cls: type) -> list[dataclasses.Field]:
-    """The dataclass fields of `cls` that are parameters (not `eqx.field(static=True)`)."""
-    return [f for f in dataclasses.fields(cls) if not f.metadata.get("static", False)]
-
-
-def _plain(value: Any) -> Any:
-    """A JSON-friendly copy of a parameter value."""
-    arr = np.asarray(value)
-    return arr.item() if arr.ndim == 0 else arr.tolist()
+        cls = type(self)
+        if cls.range_tie is None:
+            return None if cls.range_param is None else getattr(self, cls.range_param)
+        param, rule = cls.range_tie
+        p, r = parts.promote(getattr(self, param), self.r)
+        return RANGE_TIES[rule][1](p, r)
 
 
 _REGISTRY: dict[str, type[Family]] = {}
@@ -250,13 +144,8 @@ def register_family(cls: type[Family] | None = None, *, overwrite: bool = False)
             raise BadValueError(
                 f"a family named {name!r} is registered already; pass overwrite=True to replace it"
             )
-        for param in klass.default_free:
-            klass.constraint(param)  # raises on an unknown name
-        for param, kind in klass.constraints.items():
-            if kind not in CONSTRAINTS:
-                raise BadValueError(
-                    f"family {name!r}: constraint {kind!r} of {param!r} is not one of {list(CONSTRAINTS)}"
-                )
+        klass.check_class()
+        _check_family_facts(klass)
         try:
             klass()
         except Exception as exc:
@@ -265,6 +154,20 @@ def register_family(cls: type[Family] | None = None, *, overwrite: bool = False)
         return klass
 
     return add if cls is None else add(cls)
+
+
+def _check_family_facts(cls: type[Family]) -> None:
+    """Raise unless the range and start facts of `cls` name its parameters."""
+    names = cls.param_names()
+    if cls.range_tie is not None:
+        param, rule = cls.range_tie
+        if param not in names or "r" not in names or rule not in RANGE_TIES:
+            raise BadValueError(
+                f"family {cls.name!r}: range_tie {cls.range_tie!r} needs the parameters "
+                f"{param!r} and 'r', and a rule of {list(RANGE_TIES)}"
+            )
+    for param in cls.at_radius:
+        cls.constraint(param)  # raises on an unknown name
 
 
 def family_from_function(
@@ -282,8 +185,8 @@ def family_from_function(
 
     `defaults` gives the parameters (their order and default values); the remaining class
     variables (`constraints`, `singular`, `range_param`, `window`, `monotone`,
-    `tends_to_inverse_square`, `length_params`, `units`, `scale_covariant`) may be passed as
-    keywords. `default_free` defaults to every parameter. `fn` receives `d` and the parameters
+    `tends_to_inverse_square`, `length_params`, `units`, `scale_covariant`, `range_tie`,
+    `at_radius`, `inverse_linear`, `knots_param`) may be passed as keywords. `default_free` defaults to every parameter. `fn` receives `d` and the parameters
     as given (call `attenfit.parts.promote` inside it to share one dtype). With
     ``register=True`` the class is also registered (see `register_family`).
     """
@@ -291,7 +194,8 @@ def family_from_function(
         raise BadTypeError(f"family_from_function takes a callable, got {fn!r}")
     allowed = {
         "constraints", "singular", "range_param", "window", "monotone",
-        "tends_to_inverse_square", "length_params", "units", "scale_covariant",
+        "tends_to_inverse_square", "length_params", "units", "scale_covariant", "range_tie",
+        "at_radius", "inverse_linear", "knots_param",
     }  # fmt: skip
     unknown = sorted(set(properties) - allowed)
     if unknown:

@@ -6,18 +6,12 @@ from __future__ import annotations
 from typing import ClassVar
 
 import jax.numpy as jnp
-from jaxtyping import Array, ArrayLike, Float
+from jaxtyping import ArrayLike, Float
 
 from . import _parts as parts
 from ._family import Family, Out, Param, jit_call, register_family
 
 __all__ = ["MadamsCutoff", "MadamsRational", "MadamsSphere", "MadamsTan"]
-
-
-def _warped_sphere_range(r: Param, d_max: Param) -> Array:
-    """The centre distance r + d_max where a Madams warped sphere reaches 0 (m)."""
-    r, d_max = parts.promote(r, d_max)
-    return r + d_max
 
 
 def _warped_sphere(warp, d: Float[ArrayLike, "*shape"], r: Param, d_max: Param) -> Out:
@@ -52,6 +46,7 @@ class MadamsSphere(Family):
     source = "Madams 2011, Light attenuation (imdoingitwrong.wordpress.com), and its comments"
     default_free = ("r",)
     length_params = ("r",)
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
     tends_to_inverse_square = True
     scale_covariant = True
 
@@ -83,13 +78,10 @@ class MadamsCutoff(Family):
     default_free = ("r",)
     constraints: ClassVar = {"cutoff": "unit"}
     length_params = ("r",)
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
     window = "hard"
+    range_tie = ("cutoff", "cutoff")  # reaches 0 at r/sqrt(cutoff)
     scale_covariant = True
-
-    def range_distance(self) -> Array:
-        """The centre distance r/sqrt(cutoff) where the curve reaches 0."""
-        r, c = parts.promote(self.r, self.cutoff)
-        return r / jnp.sqrt(c)
 
     @jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
@@ -117,13 +109,11 @@ class MadamsTan(Family):
     source = "Madams 2011b, Improved light attenuation (tan warp)"
     default_free = ("r",)
     length_params = ("r", "d_max")
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
+    range_tie = ("d_max", "surface")  # d_max is measured from the surface
     range_param = "d_max"
     window = "smooth"
     scale_covariant = True
-
-    def range_distance(self) -> Array:
-        """The centre distance r + d_max where the curve reaches 0."""
-        return _warped_sphere_range(self.r, self.d_max)
 
     @jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
@@ -148,13 +138,11 @@ class MadamsRational(Family):
     source = "Madams 2011b, Improved light attenuation (rational warp)"
     default_free = ("r",)
     length_params = ("r", "d_max")
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
+    range_tie = ("d_max", "surface")  # d_max is measured from the surface
     range_param = "d_max"
     window = "smooth"
     scale_covariant = True
-
-    def range_distance(self) -> Array:
-        """The centre distance r + d_max where the curve reaches 0."""
-        return _warped_sphere_range(self.r, self.d_max)
 
     @jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:

@@ -62,6 +62,8 @@ class UnrealEpsilon(Family):
     source = "RTR4 eq. 5.12; Unreal Engine CapsuleLightIntegrate.ush (DistBiasSqr = 1 cm^2)"
     default_free = ("eps",)
     units: ClassVar = {"eps": 2}
+    #: 1/f = d^2 + eps: linear in eps (the fit's linear start)
+    inverse_linear: ClassVar = (lambda d: d * d, {"eps": jnp.ones_like})
     tends_to_inverse_square = True
     scale_covariant = True
 
@@ -87,6 +89,7 @@ class Clamped(Family):
     source = "RTR4 eq. 5.13 (CryEngine, Frostbite)"
     default_free = ("r_min",)
     length_params = ("r_min",)
+    at_radius: ClassVar = {"r_min": (1.0, 1)}  # "the radius of the physical object" (RTR4)
     tends_to_inverse_square = True
     scale_covariant = True
 
@@ -116,6 +119,7 @@ class Yuksel(Family):
     source = "Yuksel 2020, Point Light Attenuation Without Singularity, eq. 7"
     default_free = ("r",)
     length_params = ("r",)
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
     tends_to_inverse_square = True
     scale_covariant = True
 
@@ -141,6 +145,7 @@ class YukselAdhoc(Family):
     source = "Yuksel 2020, Point Light Attenuation Without Singularity, eq. 8"
     default_free = ("r",)
     length_params = ("r",)
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
     tends_to_inverse_square = True
     scale_covariant = True
 
@@ -169,6 +174,7 @@ class DiskFacing(Family):
     source = "closed form (Howell catalogue B-12); Madams 2011 comment thread"
     default_free = ("r",)
     length_params = ("r",)
+    at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
     tends_to_inverse_square = True
     scale_covariant = True
 
@@ -201,6 +207,13 @@ class Polynomial(Family):
     constraints: ClassVar = {"kc": "nonnegative", "kl": "nonnegative", "kq": "nonnegative"}
     length_params = ("kl",)
     units: ClassVar = {"kc": 2}
+    #: Madams 2011's kc = 1, kl = 2/r, kq = 1/r^2 on centre distance, divided by r^2
+    at_radius: ClassVar = {"kc": (1.0, 2), "kl": (2.0, 1), "kq": (1.0, 0)}
+    #: 1/f = kc + kl d + kq d^2: linear in the coefficients (the fit's linear start)
+    inverse_linear: ClassVar = (
+        jnp.zeros_like,
+        {"kc": jnp.ones_like, "kl": lambda d: d, "kq": lambda d: d * d},
+    )
     scale_covariant = True
 
     @jit_call

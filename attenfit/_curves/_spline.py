@@ -49,6 +49,7 @@ class Spline(Family):
     default_free = ("knot_values",)
     constraints: ClassVar = {"knot_values": "real"}
     monotone = False
+    knots_param = "knot_values"
 
     def __check_init__(self):
         knots = tuple(float(k) for k in self.knots)

@@ -144,6 +144,7 @@ class CryEngineLinear(Family):
     source = "CRYENGINE shadeLib.cfi::GetPhysicalLightAttenuation; RTR4 section 5.2.2 (linear tail)"
     default_free = ("r_min",)
     length_params = ("r_min", "r_max")
+    at_radius: ClassVar = {"r_min": (1.0, 1)}  # the bulb radius (fAttenuationBulbSize)
     range_param = "r_max"
     window = "hard"
     scale_covariant = True

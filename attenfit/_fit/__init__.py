@@ -1,8 +1,9 @@
 """Stage 3, fitting: `fit`, `fit_dataset` and `fit_many` on optimistix, with attenfit's
 Levenberg-Marquardt (`_solvers`), data-derived starts (`_guess`), constrained parameters
-(`_reparam`), compiled solves cached in memory (`_compile`) and on disk (`_compile_cache`).
+(`_reparam`), compiled solves cached in memory (`_compiled`) and on disk (`_compile_cache`).
 
-Imports the curves stage (a model is a `Family`) and nothing above it.
+Imports the curves stage (a model is a `Model`: a `Family` or an `AreaModel`) and nothing
+above it.
 """
 
 from ._api import fit as fit

@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 from jaxtyping import ArrayLike, Float
 
-from .._curves import AreaModel, Family
+from .._curves import Model
 from .._errors import BadTypeError, BadValueError
 from ._area_inputs import dataset_problem
 from ._compiled import compiled_solve
@@ -72,12 +72,7 @@ def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, ato
             for nm, shape in zip(spec.names, spec.shapes, strict=True)
         }
     if free is None:
-        if isinstance(model, AreaModel):
-            free = model.free_by_default()
-        elif isinstance(model, Family):
-            free = tuple(getattr(type(model), "default_free", ()))
-        else:
-            free = spec.names
+        free = tuple(type(model).default_free) if isinstance(model, Model) else spec.names
     n = target.shape[-1]
     free = validate_options(spec, values, free, loss, solver, max_steps, n, batch)
     dtype = dtype_of(d, target, *(() if weights is None else (weights,)))
@@ -102,7 +97,7 @@ def _aligned_empty(size: int, dtype: np.dtype) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- public API
 def fit(
-    model: Family | tuple,
+    model: Model | tuple,
     d: Float[ArrayLike, " n"],
     target: Float[ArrayLike, " n"],
     *,
@@ -159,7 +154,7 @@ def fit(
 
 
 def fit_many(
-    model: Family | tuple,
+    model: Model | tuple,
     d: Float[ArrayLike, "batch n"] | Float[ArrayLike, " n"],
     target: Float[ArrayLike, "batch n"],
     *,
@@ -195,7 +190,7 @@ def fit_many(
 
 
 def fit_dataset(
-    model: Family | tuple,
+    model: Model | tuple,
     dataset: Any,
     *,
     loss: str = "relative",
@@ -214,12 +209,21 @@ def fit_dataset(
     with stderr 0 in a partly noisy dataset get the smallest positive one). Other
     options as `fit`; a `weights` option multiplies these.
     """
-    if isinstance(model, AreaModel):
-        user_w = options.pop("weights", None)
-        if user_w is not None:
-            user_w = float_array("weights", user_w).reshape(-1)
-        x, target, w = dataset_problem(model, dataset, loss, user_w)
-        return fit(model, x, target, loss=loss, weights=w, **options)
+    user_w = options.pop("weights", None)
+    if user_w is not None:
+        user_w = float_array("weights", user_w).reshape(-1)
+    # the samples the model reads (`Model.inputs`): receivers' geometry, or distances
+    inputs = type(model).inputs if isinstance(model, Model) else 0
+    problem = dataset_problem if inputs else _distance_problem
+    x, target, weights = problem(model, dataset, loss, user_w)
+    return fit(model, x, target, loss=loss, weights=weights, **options)
+
+
+def _distance_problem(
+    model: Any, dataset: Any, loss: str, user_w: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """`(d, target, weights)` that fit the point-light model `E = weight * f(d)` to a
+    dataset's irradiance (see `fit_dataset`)."""
     try:
         d = np.asarray(dataset.distance())
         wgt = np.asarray(dataset.weight())
@@ -233,9 +237,7 @@ def fit_dataset(
     keep = (wgt > 0) & np.isfinite(wgt)
     if not keep.any():
         raise BadValueError("no receiver in the dataset sees the light (every weight is 0)")
-    user_w = options.pop("weights", None)
     if user_w is not None:
-        user_w = float_array("weights", user_w).reshape(-1)
         if user_w.shape != E.shape:
             raise BadValueError(
                 f"weights has shape {user_w.shape}, the dataset has {E.shape[0]} receivers"
@@ -260,4 +262,4 @@ def fit_dataset(
     if user_w is not None:
         w = w * user_w[keep]
     weights = None if np.all(w == 1) else w
-    return fit(model, d, target, loss=loss, weights=weights, **options)
+    return d, target, weights

@@ -1,5 +1,5 @@
 """Fitting area-light models: their inputs checked (the fit's `d` is the stacked `AreaInputs`,
-one row per input; their spec is `_spec.area_spec`), and `fit_dataset` for them.
+one row per input, `AreaModel.inputs`), and `fit_dataset` for them.
 
 An area model's samples are receivers, not distances: `fit(model, x, target)` takes
 `x = attenfit.area_inputs(...)` (or its `stack()`, shape `(6, n)`; `(batch, 6, n)` for

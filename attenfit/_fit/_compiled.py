@@ -188,7 +188,7 @@ def _persistent_key(spec: Spec, solver: Any) -> str | None:
     if not isinstance(solver, str):
         return None
     kind, detail = spec.key
-    if isinstance(kind, type):  # a family class and its pytree structure
+    if isinstance(kind, type):  # a model class and its pytree structure
         if not kind.__module__.startswith("attenfit."):
             return None
         return f"family:{kind.__module__}.{kind.__qualname__}:{detail}"

@@ -2,9 +2,10 @@
 
 A fit starts from the best (lowest loss) of a few candidates: the caller's start, that
 start with every free length parameter scaled by one common factor over a log grid
-(families declare their `length_params`; under d -> s d the curve's shape only depends on
-d / length), and, for families whose reciprocal is linear in their parameters
-(`1/f = kc + kl d + kq d^2` for `polynomial`, `1/f = d^2 + eps` for `unreal_epsilon`), the
+(models declare their `length_params`; under d -> s d the curve's shape only depends on
+d / length), and, for models whose reciprocal is linear in their parameters (their
+`inverse_linear`: `1/f = kc + kl d + kq d^2` for `polynomial`, `1/f = d^2 + eps` for
+`unreal_epsilon`), the
 weighted linear least-squares solution of `1/f = 1/target` (rows weighted so that its
 error reads as the fit's loss), which lands next to the optimum. A good start is what makes
 a batch of thousands of fits cheap: a vmapped solve runs until its slowest problem has
@@ -21,21 +22,12 @@ from jaxtyping import Array, Float
 
 from ._solvers import gram, spd_solve
 
-__all__ = ["INVERSE_LINEAR", "linear_candidate", "scale_candidates"]
+__all__ = ["linear_candidate", "scale_candidates"]
 
 #: Scale factors tried for the free length parameters (1 is the caller's start).
 SCALES = tuple(float(2.0**k) for k in range(-8, 9) if k != 0)
 
 _Basis = Callable[[Array], Array]
-
-#: family name -> (offset(d), {param: basis(d)}) with 1/f = offset + sum_p p * basis_p(d).
-INVERSE_LINEAR: dict[str, tuple[_Basis, dict[str, _Basis]]] = {
-    "polynomial": (
-        jnp.zeros_like,
-        {"kc": jnp.ones_like, "kl": lambda d: d, "kq": lambda d: d * d},
-    ),
-    "unreal_epsilon": (lambda d: d * d, {"eps": jnp.ones_like}),
-}
 
 
 def scale_candidates(
@@ -60,7 +52,7 @@ def scale_candidates(
 
 
 def linear_candidate(
-    family: str,
+    inverse_linear: tuple[_Basis, Mapping[str, _Basis]] | None,
     start: Mapping[str, Array],
     free: tuple[str, ...],
     kinds: Mapping[str, str],
@@ -71,16 +63,17 @@ def linear_candidate(
     loss: str,
     batched: bool = False,
 ) -> dict[str, Array] | None:
-    """The reweighted linear least-squares start of an inverse-linear family, or None.
+    """The reweighted linear least-squares start of an inverse-linear model, or None.
 
-    `inv_target`: 1 / target where target > 0, else 0.
+    `inverse_linear`: the model's `(offset, {param: basis})`, `1/f = offset + sum p basis`
+    (`attenfit.Model.inverse_linear`); None: no linear start. `inv_target`: 1 / target where target > 0, else 0.
     Only the free parameters are solved for; fixed ones move to the offset. Solutions
     outside a parameter's constraint fall back to the start (positive) or to 0
     (nonnegative); the caller keeps whichever candidate has the lowest loss.
     """
-    if family not in INVERSE_LINEAR:
+    if inverse_linear is None:
         return None
-    offset_fn, basis = INVERSE_LINEAR[family]
+    offset_fn, basis = inverse_linear
     solve_for = [p for p in basis if p in free]
     if not solve_for or any(p not in start for p in basis):
         return None

@@ -13,13 +13,13 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from .._curves import AreaModel, Family
+from .._curves import Model
 from ._problem import packed_slices, unpack_columns
 from ._spec import free_size, free_slices, free_values, rebuild
 
 # ----------------------------------------------------------------------------- results
 #: What a fit's `model` may be besides a `(fn, params)` pair.
-_MODELS = (Family, AreaModel)
+_MODELS = Model
 _MESSAGES = tuple(optx.RESULTS._index_to_message)
 _RESULT_NAMES = {item._value.item(): name for name, item in optx.RESULTS._name_to_item.items()}
 

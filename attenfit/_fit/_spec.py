@@ -1,4 +1,4 @@
-"""What a compiled solve depends on: a model's static structure (a family class and its
+"""What a compiled solve depends on: a model's static structure (a `Model` class and its
 pytree, or a user's `(fn, params)` pair) and where each free parameter lies in the fitted
 vector."""
 
@@ -15,7 +15,7 @@ import jax
 import numpy as np
 from jaxtyping import Array
 
-from .._curves import AREA_INPUTS, AreaModel, Family
+from .._curves import Model
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 
 CONSTRAINT_WORDS = {
@@ -31,7 +31,7 @@ CONSTRAINT_WORDS = {
 class Spec:
     """The static structure of a model: what a compiled solve depends on."""
 
-    key: Any  # hashable: family treedef or the user's fn
+    key: Any  # hashable: (model class, pytree structure) or the user's fn
     evaluate: Callable[[Array, dict[str, Array]], Array] = dataclasses.field(compare=False)
     names: tuple[str, ...]
     kinds: tuple[str, ...]
@@ -45,20 +45,20 @@ class Spec:
     leaves_are_params: bool = False
     #: rows of `d` (an area model's inputs, `_area`); 0: `d` is a vector of distances
     inputs: int = 0
-    #: the parameter leaves of a model (`eqx.tree_at`'s `where`), where not its fields by name
-    where: Callable[[Any], list[Any]] | None = dataclasses.field(default=None, compare=False)
+    #: `1/f` linear in some parameters (`Model.inverse_linear`): the linear start
+    inverse_linear: Any = dataclasses.field(default=None, compare=False)
 
 
-def _family_spec(model: Family, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
+def _model_spec(model: Model, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
     cls = type(model)
     leaves, treedef = jax.tree_util.tree_flatten(model)
-    spec = _FAMILY_SPECS.get((cls, treedef))
+    spec = _MODEL_SPECS.get((cls, treedef))
     if spec is None:
-        spec = _FAMILY_SPECS[cls, treedef] = _new_family_spec(model, treedef)
+        spec = _MODEL_SPECS[cls, treedef] = _new_model_spec(model, treedef)
     if spec.leaves_are_params:
         values = {n: np.asarray(v) for n, v in zip(spec.names, leaves, strict=True)}
     else:
-        values = {n: np.asarray(getattr(model, n)) for n in spec.names}
+        values = {n: np.asarray(v) for n, v in model.params().items()}
     for n, v in values.items():
         if v.dtype.kind not in "fiu":
             raise BadTypeError(
@@ -67,63 +67,48 @@ def _family_spec(model: Family, batched: bool) -> tuple[Spec, dict[str, np.ndarr
     return spec, values
 
 
-#: The static structure of each (family class, pytree structure) seen, built once: a
+#: The static structure of each (model class, pytree structure) seen, built once: a
 #: repeated `fit` of the same kind of model skips the class introspection.
-_FAMILY_SPECS: dict[Any, Spec] = {}
+_MODEL_SPECS: dict[Any, Spec] = {}
 
 
-def _new_family_spec(model: Family, treedef: Any) -> Spec:
+def _new_model_spec(model: Model, treedef: Any) -> Spec:
     cls = type(model)
     names = cls.param_names()
     template = model
 
-    def evaluate(d, params):
-        m = eqx.tree_at(
-            lambda m: [getattr(m, n) for n in names],
-            template,
-            [params[n] for n in names],
-            is_leaf=lambda x: x is None,
-        )
-        return m(d)
+    def evaluate(x, params):
+        return rebuild(spec, template, [params[n] for n in names]).evaluate(x)
 
-    return Spec(
+    spec = Spec(
         key=(cls, treedef),
         evaluate=evaluate,
         names=names,
         kinds=tuple(cls.constraint(n) for n in names),
         shapes=(),  # set by _prepare, which knows the batch size
-        family=getattr(cls, "name", None),
-        length_params=tuple(getattr(cls, "length_params", ())),
-        range_param=getattr(cls, "range_param", None),
+        family=cls.name,
+        length_params=tuple(cls.length_params),
+        range_param=cls.range_param,
         leaves_are_params=_leaves_are_params(model, names),
+        inputs=cls.inputs,
+        inverse_linear=cls.inverse_linear,
     )
+    return spec
 
 
-_LEAVES_ARE_PARAMS: dict[Any, bool] = {}
-
-
-def _leaves_are_params(model: Family, names: tuple[str, ...]) -> bool:
-    treedef = jax.tree_util.tree_structure(model)
-    key = (type(model), treedef)
-    if key not in _LEAVES_ARE_PARAMS:
-        leaves = jax.tree_util.tree_leaves(model)
-        _LEAVES_ARE_PARAMS[key] = len(leaves) == len(names) and all(
-            leaf is getattr(model, n) for leaf, n in zip(leaves, names, strict=False)
-        )
-    return _LEAVES_ARE_PARAMS[key]
+def _leaves_are_params(model: Model, names: tuple[str, ...]) -> bool:
+    leaves = jax.tree_util.tree_leaves(model)
+    return len(leaves) == len(names) and all(
+        leaf is value for leaf, value in zip(leaves, model.param_leaves(), strict=False)
+    )
 
 
 def rebuild(spec: Spec, template: Any, fields: Sequence[Any]) -> Any:
     """`template` with its parameters replaced by `fields` (in `spec.names` order)."""
-    if spec.where is not None:
-        return eqx.tree_at(spec.where, template, list(fields), is_leaf=lambda x: x is None)
     if spec.leaves_are_params:
         return jax.tree_util.tree_unflatten(spec.key[1], list(fields))
     return eqx.tree_at(
-        lambda m: [getattr(m, nm) for nm in spec.names],
-        template,
-        list(fields),
-        is_leaf=lambda x: x is None,
+        lambda m: m.param_leaves(), template, list(fields), is_leaf=lambda x: x is None
     )
 
 
@@ -180,53 +165,10 @@ def _pair_spec(model: tuple, batched: bool) -> tuple[Spec, dict[str, np.ndarray]
     return spec, values
 
 
-_AREA_SPECS: dict[Any, Spec] = {}
-
-
-def area_spec(model: AreaModel, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
-    """The static structure of an area model and its parameter values."""
-    _, treedef = jax.tree_util.tree_flatten(model)
-    key = (type(model), treedef)
-    spec = _AREA_SPECS.get(key)
-    names = model.param_names()
-    if spec is None:
-        template = model
-
-        def where(m: AreaModel) -> list[Any]:
-            return m.param_leaves()
-
-        def evaluate(x, params):
-            m = eqx.tree_at(
-                where, template, [params[n] for n in names], is_leaf=lambda v: v is None
-            )
-            return m.evaluate(x)
-
-        spec = _AREA_SPECS[key] = Spec(
-            key=key,
-            evaluate=evaluate,
-            names=names,
-            kinds=tuple(model.constraint(n) for n in names),
-            shapes=(),
-            family=model.name,
-            length_params=model.length_params(),
-            inputs=len(AREA_INPUTS),
-            where=where,
-        )
-    values = {n: np.asarray(v) for n, v in zip(names, model.param_leaves(), strict=True)}
-    for n, v in values.items():
-        if v.dtype.kind not in "fiu":
-            raise BadTypeError(
-                f"parameter {n!r} of {model.name!r} must be a real number, got dtype {v.dtype}"
-            )
-    return spec, values
-
-
 def spec_of(model: Any, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
-    if isinstance(model, AreaModel):
-        return area_spec(model, batched)
-    if isinstance(model, Family):
-        return _family_spec(model, batched)
-    if isinstance(model, type) and issubclass(model, Family):
+    if isinstance(model, Model):
+        return _model_spec(model, batched)
+    if isinstance(model, type) and issubclass(model, Model):
         raise BadTypeError(
             f"model must be a Family instance, got the class {model.__name__}; call it: {model.__name__}()"
         )

@@ -1,5 +1,6 @@
 """Each family's parameters "as published" for a light of radius r: the rules the report
-states, applied."""
+states, applied to the facts each family class declares (`at_radius`, `range_param` and
+`range_tie`, `knots_param`)."""
 
 from __future__ import annotations
 
@@ -16,19 +17,16 @@ def range_of(model: Any) -> float | None:
     """The centre distance at which a windowed family reaches 0 (None without a window)."""
     if type(model).window not in WINDOWED:
         return None
-    if hasattr(model, "range_distance"):
-        return float(np.asarray(model.range_distance()))
-    p = type(model).range_param
-    return None if p is None else float(np.asarray(getattr(model, p)))
+    rng = model.range_distance()
+    return None if rng is None else float(np.asarray(rng))
 
 
 def range_params(cls: type) -> tuple[str, ...]:
-    """The parameters that set a family's range (r_max, cutoff, range, d_max, and
-    `madams_cutoff`'s irradiance cutoff): the user's budget, which the report never fits."""
-    out = [] if cls.range_param is None else [cls.range_param]
-    if cls.name == "madams_cutoff":
-        out.append("cutoff")
-    return tuple(out)
+    """The parameter that sets a family's range (r_max, cutoff, range, d_max, and
+    `madams_cutoff`'s irradiance cutoff: `Family.range_setter`), if any: the user's budget,
+    which the report never fits."""
+    p = cls.range_setter()
+    return () if p is None else (p,)
 
 
 def shape_free(cls: type) -> tuple[str, ...]:
@@ -78,14 +76,13 @@ def published_params(cls: type, r: float, truth_at: Callable[[float], float] | N
     notes = []
     rng = published_range(r)
     for p, v in defaults.items():
-        if p == "r" or (p == "r_min" and cls.name in ("clamped", "cryengine_linear")):
-            params[p] = r
-        elif p == cls.range_param:
-            params[p] = rng - r if cls.name in ("madams_tan", "madams_rational") else rng
-        elif cls.name == "madams_cutoff" and p == "cutoff":
-            params[p] = PUBLISHED_CUTOFF
-        elif cls.name == "polynomial" and p in ("kc", "kl", "kq"):
-            params[p] = {"kc": r * r, "kl": 2.0 * r, "kq": 1.0}[p]
+        if p in cls.at_radius:
+            c, k = cls.at_radius[p]
+            params[p] = c * math.prod((r,) * k)  # c r^k (r * r, as the rules write it)
+        elif p == cls.range_setter():
+            # the cutoff itself where it sets the range (exactly, at every radius)
+            cutoff = cls.range_tie is not None and cls.range_tie[1] == "cutoff"
+            params[p] = PUBLISHED_CUTOFF if cutoff else cls.range_value(rng, r)
         else:
             params[p] = v
     if "scale" in params:
@@ -93,6 +90,6 @@ def published_params(cls: type, r: float, truth_at: Callable[[float], float] | N
         if truth_at is not None:
             params["scale"] = float(truth_at(r)) / float(np.asarray(model(np.float64(r))))
             notes.append("scale matches the truth at d = r")
-    if cls.name == "spline":
+    if cls.knots_param is not None:
         notes.append("an authored curve: no published values, defaults shown")
     return params, "; ".join(notes)

@@ -74,18 +74,9 @@ def light_data(scene: Scene, truth: LightTruth) -> LightData:
 
 
 # ----------------------------------------------------------------------------- fitting
-_TIES = {
-    # family -> (tied parameter, its value from (r, range))
-    "madams_tan": ("d_max", lambda r, R: R - r),
-    "madams_rational": ("d_max", lambda r, R: R - r),
-    "madams_cutoff": ("cutoff", lambda r, R: (r / R) ** 2),
-}
-
-
 def _range_param(cls: type[Family]) -> str | None:
-    if cls.name in _TIES:
-        return _TIES[cls.name][0]
-    return cls.range_param
+    """The parameter a light's range sets (`Family.range_setter`; kept for `_choices`)."""
+    return cls.range_setter()
 
 
 #: A light with no range gives windowed families a range this many times the farthest
@@ -108,9 +99,9 @@ def fit_plan(
             vals[p] = data.radius * (2.0 if p == "kl" else 1.0)
         elif power == 2:
             vals[p] = data.radius**2
-    if cls.name == "spline":
+    if cls.knots_param is not None:  # an authored curve: a facing disk's through the knots
         k = np.asarray(knots)
-        vals["knot_values"] = -np.log(k * k + data.radius**2)
+        vals[cls.knots_param] = -np.log(k * k + data.radius**2)
         vals["knots"] = knots
     free = tuple(cls.default_free)
     if rp is not None:
@@ -121,20 +112,20 @@ def fit_plan(
             free = tuple(p for p in free if p != rp)
             R = FAR_RANGE * d_hi if R is None else R
             vals["R"] = R
-            vals[rp] = _TIES[cls.name][1](data.radius, R) if cls.name in _TIES else R
+            vals[rp] = cls.range_value(R, data.radius)
     return vals, free
 
 
 class _Tied:
     """`cls` with its range parameter tied to the fitted `r` and the light's range `R`
-    (`_TIES`), as a `(fn, params)` model: `fn(d, {"r": r, "R": R})`."""
+    (`Family.range_tie`), as a `(fn, params)` model: `fn(d, {"r": r, "R": R})`."""
 
     def __init__(self, cls: type[Family]):
         self.cls = cls
-        self.tied, self.rule = _TIES[cls.name]
+        self.tied = cls.range_setter()
 
     def __call__(self, d, p):
-        return self.cls(r=p["r"], **{self.tied: self.rule(p["r"], p["R"])})(d)
+        return self.cls(r=p["r"], **{self.tied: self.cls.range_value(p["R"], p["r"])})(d)
 
     def cache_key(self) -> str:
         """What this model computes, for the fit stage's cache across processes."""
@@ -161,7 +152,7 @@ def fit_group(
         return [
             (cls(**{k: s[k] for k in cls.param_names()}), True, "no free parameter") for s in starts
         ]
-    knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.name == "spline" else {}
+    knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.knots_param is not None else {}
     n = _bucket(max(len(x.d) for x in datas), 64)
     b = _bucket(len(datas), 2)
     # pad every light to n receivers with zero-weight copies, and the batch to b problems with
@@ -178,17 +169,17 @@ def fit_group(
         T[k] = np.concatenate([target, np.full(n - m, target[0])])
         W[k] = np.concatenate([w, np.zeros(n - m)])
     starts = [starts[src] for src in rows]
-    if cls.name in _TIES:
+    if cls.range_tie is not None:
         fn = _TIED_FNS.setdefault(cls.name, _Tied(cls))
         params = {"r": np.array([s["r"] for s in starts]), "R": np.array([s["R"] for s in starts])}
         res = fit_many(
             (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)
         )
-        tied, rule = _TIES[cls.name]
         out = []
         for k in range(len(datas)):
             r, R = float(res[k].params["r"]), float(starts[k]["R"])
-            out.append((cls(r=r, **{tied: rule(r, R)}), res[k].converged, res[k].message))
+            tied = {fn.tied: cls.range_value(R, r)}
+            out.append((cls(r=r, **tied), res[k].converged, res[k].message))
         return out
     batched = {p: np.array([s[p] for s in starts]) for p in cls.param_names()}
     model = cls(**batched, **knots_kw)
