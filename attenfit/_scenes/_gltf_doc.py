@@ -288,7 +288,7 @@ def _node(c: _Check, d: dict[str, Any], path: str, n: dict[str, int], lights: in
     if ext is not None and c.obj(ext, f"{path}.extensions").get(_EXT) is not None:
         ne = c.obj(ext[_EXT], f"{path}.extensions.{_EXT}")
         if "light" in ne:
-            c.index(ne["light"], f"{path}.extensions.{_EXT}.light", lights, "the lights")
+            c.index(ne["light"], f"{path}.extensions.{_EXT}.light", lights, f"{_EXT}.lights")
 
 
 def _mesh(c: _Check, d: dict[str, Any], path: str, n: dict[str, int]) -> None:
@@ -326,7 +326,7 @@ def _view(c: _Check, d: dict[str, Any], path: str, buffers: list[dict[str, Any]]
 
 def _accessor(c: _Check, d: dict[str, Any], path: str, views: list[dict[str, Any]]) -> None:
     comp = d.get("componentType")
-    if isinstance(comp, bool) or comp not in COMPONENTS:
+    if isinstance(comp, bool) or not isinstance(comp, int) or comp not in COMPONENTS:
         raise c.fail(
             f"{path}.componentType",
             f"must be one of {', '.join(map(str, COMPONENTS))}, got {_show(comp)}",

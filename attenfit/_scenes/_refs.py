@@ -61,9 +61,11 @@ def _split_data(uri: str, where: str) -> tuple[str, bool, str]:
 
 
 def data_size(uri: str, where: str) -> int:
-    """An upper bound of the bytes the `data:` URI `uri` decodes to, from its text alone."""
+    """The bytes the `data:` URI `uri` decodes to (at most), from its text alone."""
     _, b64, payload = _split_data(uri, where)
-    return (len(payload) * 3) // 4 + 3 if b64 else len(payload)
+    if not b64:
+        return len(payload)
+    return max((len(payload) * 3) // 4 - len(payload[-2:]) + len(payload[-2:].rstrip("=")), 0)
 
 
 def data_bytes(uri: str, where: str, limit: int) -> bytes:
