@@ -343,7 +343,8 @@ def _accessor(g: _Gltf, a: int) -> np.ndarray:
     comp, width, count = acc["componentType"], WIDTH[acc["type"]], acc["count"]
     dtype = np.dtype(_DTYPES[comp]).newbyteorder("<")
     if "bufferView" not in acc:  # glTF 2.0 3.6.2.1: zeros
-        return np.zeros((count, width))
+        whole = dtype.kind != "f" and not acc.get("normalized")
+        return np.zeros((count, width), np.int64 if whole else np.float64)
     view = g.doc["bufferViews"][acc["bufferView"]]
     buf = g.buffer(view["buffer"])
     start = view.get("byteOffset", 0) + acc.get("byteOffset", 0)
