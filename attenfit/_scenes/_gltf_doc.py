@@ -2,9 +2,9 @@
 it describes is read.
 
 The JSON is parsed with the standard library after the checks every input gets
-(`attenfit._input`: a regular file, at most 256 MiB, nesting at most 32 deep) and one more:
-its count of values (objects, arrays, commas) against a cap and the memory budget, before
-`json.loads` builds them. Then `check_document` validates the shape of everything attenfit
+(`attenfit._input`: a regular file, at most 256 MiB) and one more: its count of values
+(objects, arrays, commas) against a cap and the memory budget, before `json.loads` builds
+them; its nesting is then checked (at most 32 deep, as every JSON input). Then `check_document` validates the shape of everything attenfit
 reads, with messages naming the key path (`nodes[3].rotation`), against the glTF 2.0
 specification (section 5, the JSON schema; section 3.6 for binary data) and attenfit's caps:
 
@@ -24,6 +24,7 @@ kept as written, for a write-back.
 
 from __future__ import annotations
 
+import json
 import math
 import struct
 from typing import Any
@@ -32,7 +33,7 @@ import numpy as np
 
 from .. import _budget
 from .._errors import BadTypeError, BadValueError, DataFileError
-from .._input import load_json
+from .._input import MAX_DEPTH
 
 __all__ = ["MAX_ITEMS", "MAX_LIGHTS", "WIDTH", "check_document", "element_size", "parse"]
 
@@ -96,10 +97,36 @@ def parse(data: bytes, label: str) -> tuple[dict[str, Any], memoryview | None]:
         decoded = text.decode("utf-8").removeprefix("\ufeff")
     except UnicodeDecodeError:
         raise DataFileError(f"{label}: not a glTF 2.0 file (its JSON is not UTF-8)") from None
-    doc = load_json(decoded, f"{label}: glTF JSON")
+    doc = _loads(decoded, label)
+    del decoded
+    return doc, bin_chunk
+
+
+def _loads(text: str, label: str) -> dict[str, Any]:
+    """`json.loads(text)`, its nesting then checked (at most `MAX_DEPTH`). The C parser stops
+    at Python's recursion limit by itself; the regular expression `load_json` blanks strings
+    with takes ~100 bytes of memory per character of a long string (an 80 MB embedded
+    buffer: 9 GB), so a glTF's JSON is not given to it."""
+    try:
+        doc = json.loads(text)
+    except RecursionError:
+        raise DataFileError(f"{label}: glTF JSON nests too deeply to read") from None
+    except ValueError as exc:  # JSONDecodeError; an integer of over 4300 digits
+        raise DataFileError(f"{label}: glTF JSON is not valid JSON: {exc}") from None
+    stack = [(doc, 1)]
+    while stack:
+        v, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise DataFileError(
+                f"{label}: glTF JSON nests arrays or objects more than {MAX_DEPTH} deep; "
+                f"attenfit reads at most {MAX_DEPTH}"
+            )
+        for x in v.values() if isinstance(v, dict) else v:
+            if isinstance(x, dict | list):
+                stack.append((x, depth + 1))
     if not isinstance(doc, dict):
         raise DataFileError(f"{label}: not a glTF 2.0 file (its JSON is not an object)")
-    return doc, bin_chunk
+    return doc
 
 
 def _glb(data: memoryview, label: str) -> tuple[bytes, memoryview | None]:
