@@ -173,6 +173,8 @@ OUTSIDE = {
     "other-host": lambda room: "file://server/share/floor.bin",
     "query": lambda room: "floor.bin?x=1",
     "nul": lambda room: "floor.bin%00.txt",
+    "the-folder": lambda room: ".",
+    "surrogate": lambda room: "\ud800.bin",
 }
 
 

@@ -132,8 +132,14 @@ class SceneFolder:
                 raise DataFileError(f"{head}: percent-encodes bytes that are not UTF-8") from None
         if "\x00" in text:
             raise DataFileError(f"{head}: holds a NUL character")
+        try:
+            os.fsencode(text)
+        except UnicodeEncodeError:
+            raise DataFileError(f"{head}: not a file name this system can open") from None
         real = Path(os.path.realpath(self.folder / text))
-        if real == self.folder or self.folder not in real.parents:
+        if real == self.folder:
+            raise DataFileError(f"{head}: names the scene's folder, not a file in it")
+        if self.folder not in real.parents:
             raise DataFileError(
                 f"{head}: resolves to {str(real)!r}, outside the scene's folder "
                 f"{str(self.folder)!r}; a scene may reference files in its own folder only"

@@ -84,9 +84,11 @@ def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) 
 
     label = imported.path.name
     doc = embedded_document(imported.path, label)  # files outside its folder: refused
-    lights = doc["extensions"]["KHR_lights_punctual"]["lights"]
+    lights = ((doc.get("extensions") or {}).get("KHR_lights_punctual") or {}).get("lights") or []
     for c in choices:
         j = imported.refs[c.light]
+        if not (isinstance(j, int) and j < len(lights)):
+            raise BadValueError(f"{label}: changed while it was answered (light {j} is gone)")
         d = lights[j]
         where = f"{label}: extensions.KHR_lights_punctual.lights[{j}].extras"
         extras = d.setdefault("extras", {})
