@@ -47,6 +47,8 @@ MAX_VALUES = 8_000_000
 #: Bytes of memory per JSON value `json.loads` builds (an object ~200 B, others ~40 B).
 _BYTES_PER_OBJECT, _BYTES_PER_VALUE = 256, 48
 
+#: The largest byte length, offset or count read (2^53: exact as a float).
+_BIG = 2**53
 COMPONENTS = {5120: 1, 5121: 1, 5122: 2, 5123: 2, 5125: 4, 5126: 4}
 WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT2": 4, "MAT3": 9, "MAT4": 16}
 _EXT = "KHR_lights_punctual"
@@ -261,7 +263,7 @@ def check_document(doc: dict[str, Any], label: str) -> None:
         if "doubleSided" in mat:
             c.boolean(mat["doubleSided"], f"materials[{k}].doubleSided")
     for k, buf in enumerate(arrays["buffers"]):
-        c.integer(buf.get("byteLength"), f"buffers[{k}].byteLength", 1)
+        c.integer(buf.get("byteLength"), f"buffers[{k}].byteLength", 1, _BIG)
         if "uri" in buf:
             c.string(buf["uri"], f"buffers[{k}].uri")
     for k, img in enumerate(arrays["images"]):
@@ -336,8 +338,8 @@ def _mesh(c: _Check, d: dict[str, Any], path: str, n: dict[str, int]) -> None:
 
 def _view(c: _Check, d: dict[str, Any], path: str, buffers: list[dict[str, Any]]) -> None:
     b = c.index(d.get("buffer"), f"{path}.buffer", len(buffers), "buffers")
-    offset = c.integer(d.get("byteOffset", 0), f"{path}.byteOffset", 0)
-    length = c.integer(d.get("byteLength"), f"{path}.byteLength", 1)
+    offset = c.integer(d.get("byteOffset", 0), f"{path}.byteOffset", 0, _BIG)
+    length = c.integer(d.get("byteLength"), f"{path}.byteLength", 1, _BIG)
     if "byteStride" in d:
         stride = c.integer(d["byteStride"], f"{path}.byteStride", 4, 252)
         if stride % 4:
@@ -361,8 +363,8 @@ def _accessor(c: _Check, d: dict[str, Any], path: str, views: list[dict[str, Any
     kind = d.get("type")
     if not isinstance(kind, str) or kind not in WIDTH:
         raise c.fail(f"{path}.type", f"must be one of {', '.join(WIDTH)}, got {_show(kind)}")
-    count = c.integer(d.get("count"), f"{path}.count", 1)
-    offset = c.integer(d.get("byteOffset", 0), f"{path}.byteOffset", 0)
+    count = c.integer(d.get("count"), f"{path}.count", 1, _BIG)
+    offset = c.integer(d.get("byteOffset", 0), f"{path}.byteOffset", 0, _BIG)
     if "normalized" in d and c.boolean(d["normalized"], f"{path}.normalized"):
         if comp in (5125, 5126):
             raise c.fail(f"{path}.normalized", "is only for 8- and 16-bit integer components")
