@@ -543,6 +543,8 @@ SHAPE = {
     "matrix-15": (_node(1, matrix=[1] * 15), "nodes[1].matrix: must be a list of 16 numbers"),
     "scale-zero-light": (_node(1, scale=[0, 0, 0]), "non-uniform scale (0.0, 0.0, 0.0)"),
     "huge-translation": (_huge, "light 'bulb' (node 'bulbNode'): its node's world transform is not finite"),
+    "far-light": (_node(1, translation=[1e308, 0, 1]), "light 'bulb' (node 'bulbNode'): 1e+308 m from the origin; attenfit reads scenes within 1e+12 m"),
+    "far-mesh": (_node(0, translation=[0, -1e13, 0]), "mesh 'floor/floor/primitives[0]': points 1e+13 m from the origin"),
     "zero-scale-mesh": (_node(0, scale=[0, 1, 1]), "its node's world transform is not invertible"),
     "children-text": (_node(0, children="1"), "nodes[0].children: must be a list"),
     "nodes-object": (lambda d: d.update(nodes={"0": {}}), "nodes: must be a list of objects"),

@@ -52,6 +52,9 @@ _EXT = "KHR_lights_punctual"
 _DTYPES = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32, 5126: np.float32}  # fmt: skip
 #: The deepest node hierarchy read (an exported rig is tens of levels deep).
 MAX_NODE_DEPTH = 256
+#: The farthest a light or mesh point may be from the origin (m): distances and their
+#: squares stay far inside the float range (1e308 overflowed the sampling's norms).
+MAX_COORDINATE = 1e12
 #: Memory per decoded accessor component (the raw copy and float64) and per triangle of a
 #: mesh instance (world corners and normals, kept and gathered again to sample), rounded up.
 BYTES_PER_COMPONENT = 16
@@ -404,6 +407,11 @@ def _mesh(g: _Gltf, cache, k: int, mi: int, p: int, m: np.ndarray) -> Mesh | Non
             geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
             nn = np.linalg.norm(geo, axis=1, keepdims=True)
             normals = np.repeat((geo / np.where(nn > 0, nn, 1))[:, None], 3, axis=1)
+    if corners.size and np.all(np.isfinite(corners)) and np.abs(corners).max() > MAX_COORDINATE:
+        raise BadValueError(
+            f"{label}: mesh {name!r}: points {np.abs(corners).max():.3g} m from the origin; "
+            f"attenfit reads scenes within {MAX_COORDINATE:g} m"
+        )
     double = False
     if "material" in prim:
         double = bool(doc["materials"][prim["material"]].get("doubleSided", False))
@@ -426,6 +434,11 @@ def _light(d: dict[str, Any], j, node, m, label, radius_for, strict, notice) -> 
         s = np.linalg.norm(m[:3, :3], axis=1)
     if not np.all(np.isfinite(m)):
         raise BadValueError(f"{where}: its node's world transform is not finite")
+    if np.abs(m[3, :3]).max() > MAX_COORDINATE:
+        raise BadValueError(
+            f"{where}: {np.abs(m[3, :3]).max():.3g} m from the origin; attenfit reads scenes "
+            f"within {MAX_COORDINATE:g} m"
+        )
     if not np.all(s > 0) or (s.max() - s.min()) > 1e-6 * s.max():
         raise BadValueError(
             f"{where}: non-uniform scale {tuple(round(float(x), 6) for x in s)} on a light's node"
