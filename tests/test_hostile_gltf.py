@@ -571,6 +571,35 @@ def test_json_shape_is_checked_with_the_key_path(room, capsys, case):
     refused(capsys, _write(room, doc), fragment=fragment)
 
 
+@pytest.mark.parametrize("depth", [40, 200_000])
+def test_json_nested_past_the_limit_is_refused(room, capsys, depth):
+    text = json.dumps(scene_doc())[:-1] + ', "extras": ' + "[" * depth + "]" * depth + "}"
+    err = refused(capsys, _write(room, text), fragment="scene.gltf: glTF JSON nests")
+    assert "32" in err or "too deeply" in err
+
+
+def test_a_glb_padded_with_nuls_is_read(room):
+    doc = scene_doc()
+    del doc["buffers"][0]["uri"]
+    text = json.dumps(doc).encode()
+    text += b"\0" * (4 - len(text) % 4)
+    body = struct.pack("<II", len(text), 0x4E4F534A) + text
+    body += struct.pack("<II", len(BLOB), 0x004E4942) + BLOB
+    path = _write(room, struct.pack("<4sII", b"glTF", 2, 12 + len(body)) + body, "scene.glb")
+    im = load_mesh_scene(path, radius=0.05, samples=16, notice=lambda m: None)
+    assert im.scene.lights[0].position == (0.0, 0.0, 1.0)
+
+
+def test_the_resolver_for_usd_paths_does_not_percent_decode(room):
+    folder = _refs.SceneFolder(room / "scene.usda", "scene.usda")
+    assert folder.resolve("my%20floor.usda", "subLayers[0]", uri=False).name == "my%20floor.usda"
+    assert folder.resolve("my%20floor.usda", "subLayers[0]").name == "my floor.usda"
+    with pytest.raises(DataFileError, match=r"subLayers\[0\] '../secret.txt': resolves to"):
+        folder.resolve("../secret.txt", "subLayers[0]", uri=False)
+    with pytest.raises(DataFileError, match="not checked before reading"):
+        folder.read(room / "x.usda", "x.usda", "subLayers[1]", 100)
+
+
 def test_errors_are_the_documented_classes(room):
     cases = [(SHAPE["scene-5"][0], BadValueError), (SHAPE["intensity-text"][0], BadTypeError),
              (lambda d: d["buffers"][0].update(uri="../secret.txt"), DataFileError)]  # fmt: skip

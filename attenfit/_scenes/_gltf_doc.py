@@ -151,7 +151,7 @@ def _glb(data: memoryview, label: str) -> tuple[bytes, memoryview | None]:
     if not chunks or chunks[0][0] != _JSON:
         raise DataFileError(f"{bad} (a GLB whose first chunk is not JSON)")
     binary = chunks[1][1] if len(chunks) > 1 and chunks[1][0] == _BIN else None
-    return bytes(chunks[0][1]), binary
+    return bytes(chunks[0][1]).rstrip(b"\x00"), binary  # some writers pad with NULs
 
 
 # ----------------------------------------------------------------------------- checks
