@@ -531,6 +531,8 @@ SHAPE = {
     "punctual-list": (lambda d: d["extensions"].update(KHR_lights_punctual=[1]), f"{LP}: must be a JSON object"),
     "extensions-text": (lambda d: d.update(extensions="x"), "extensions: must be a JSON object"),
     "scene-5": (lambda d: d.update(scene=5), "scene: index 5 is out of range: scenes has 1 items"),
+    "scene-null-no-light": (lambda d: d.update(scene=None, nodes=d["nodes"][:1], scenes=[{"nodes": [0]}]), "no sphere, disk, spot or point light"),
+    "primitives-null": (lambda d: d["meshes"][0].update(primitives=None), "no mesh to sample receivers on"),
     "scene-text": (lambda d: d.update(scene="0"), "scene: must be an index into scenes"),
     "scene-nodes": (lambda d: d["scenes"][0].update(nodes=[0, 9]), "scenes[0].nodes[1]: index 9 is out of range"),
     "mesh-index": (_node(0, mesh=7), "nodes[0].mesh: index 7 is out of range: meshes has 1 items"),
@@ -639,6 +641,8 @@ def _mutate(doc, path, how, value):
         del parent[key]
     elif how == "replace":
         parent[key] = value
+    elif how == "null":
+        parent[key] = None
     elif how == "wrap":
         parent[key] = [parent[key]] if isinstance(key, str) else {"x": parent[key]}
     elif how == "duplicate" and isinstance(parent, list):
@@ -662,7 +666,9 @@ def test_fuzz_gltf_json_never_an_internal_error(tmp_path_factory, data):
     for _ in range(data.draw(st.integers(1, 3))):
         paths = list(_paths(doc))
         path = data.draw(st.sampled_from(paths))
-        how = data.draw(st.sampled_from(["replace", "replace", "delete", "wrap", "duplicate"]))
+        how = data.draw(
+            st.sampled_from(["replace", "replace", "null", "delete", "wrap", "duplicate"])
+        )
         _mutate(doc, path, how, copy.deepcopy(data.draw(st.sampled_from(HOSTILE))))
     if not isinstance(doc, dict):
         return

@@ -185,7 +185,7 @@ def _world(doc: dict[str, Any], label: str) -> dict[int, np.ndarray]:
             f"{label}: nodes[{k}]: its ancestors form a cycle (nodes[{parent[k]}] ...)"
         )
     if doc.get("scenes"):
-        s = doc.get("scene", 0)
+        s = 0 if doc.get("scene") is None else doc["scene"]
         roots = list(doc["scenes"][s].get("nodes", []))
         for r in roots:
             if parent[r] != -1:
@@ -244,7 +244,7 @@ def read_gltf(
         if "light" in ne:
             light_nodes.append((k, ne["light"]))
         if "mesh" in node:
-            for p in range(len(doc["meshes"][node["mesh"]].get("primitives", []))):
+            for p in range(len(doc["meshes"][node["mesh"]].get("primitives") or [])):
                 plan.append((k, node["mesh"], p))
     if len(light_nodes) > MAX_LIGHTS:
         raise BadValueError(

@@ -76,7 +76,7 @@ def parse(data: bytes, label: str) -> tuple[dict[str, Any], memoryview | None]:
     if data[:4] == b"glTF":
         text, bin_chunk = _glb(memoryview(data), label)
     else:
-        text = bytes(data)
+        text = data
     counts = np.frombuffer(text, np.uint8)
     objects = int(np.count_nonzero(counts == ord("{")))
     values = (
