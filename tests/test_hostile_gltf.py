@@ -659,10 +659,14 @@ FUZZ = settings(max_examples=120 * SCALE, deadline=None, suppress_health_check=l
 @given(data=st.data())
 def test_fuzz_gltf_json_never_an_internal_error(tmp_path_factory, data):
     """Mutations of the valid scene (types swapped, extreme numbers, indices out of range,
-    keys deleted, values wrapped in lists, items duplicated): exit 0 or 2, never 1."""
+    keys deleted, values set to null or wrapped in lists, items duplicated; bytes of its
+    buffer flipped): exit 0 or 2, never 1."""
     folder = tmp_path_factory.mktemp("fuzz")
-    (folder / "floor.bin").write_bytes(BLOB)
-    doc = scene_doc(data.draw(st.sampled_from([None, "floor.bin"])))
+    blob = bytearray(BLOB)  # the buffer's bytes flipped too: NaN, huge or negative values
+    for i in data.draw(st.lists(st.integers(0, len(BLOB) - 1), max_size=3)):
+        blob[i] ^= data.draw(st.integers(1, 255))
+    (folder / "floor.bin").write_bytes(bytes(blob))
+    doc = scene_doc(data.draw(st.sampled_from([_data_uri(bytes(blob)), "floor.bin"])))
     for _ in range(data.draw(st.integers(1, 3))):
         paths = list(_paths(doc))
         path = data.draw(st.sampled_from(paths))
