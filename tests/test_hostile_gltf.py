@@ -25,7 +25,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from attenfit import BadTypeError, BadValueError, DataFileError
+from attenfit import BadTypeError, BadValueError, DataFileError, _input
 from attenfit._scenes import _refs
 from attenfit._scenes._files import load_mesh_scene
 from attenfit.cli import main
@@ -180,7 +180,15 @@ OUTSIDE = {
 
 @pytest.mark.parametrize("case", OUTSIDE, ids=list(OUTSIDE))
 @pytest.mark.parametrize("what", ["buffer", "image"])
-def test_references_outside_the_folder_are_refused(room, capsys, case, what):
+def test_references_outside_the_folder_are_refused(room, capsys, monkeypatch, case, what):
+    opened = []
+    real_open = _input._open_regular
+
+    def spy(path, what):  # every input attenfit opens goes through it
+        opened.append(os.path.realpath(path))
+        return real_open(path, what)
+
+    monkeypatch.setattr(_input, "_open_regular", spy)
     uri = OUTSIDE[case](room)
     (room / "floor.bin").write_bytes(BLOB)
     doc = scene_doc("floor.bin")
@@ -192,6 +200,7 @@ def test_references_outside_the_folder_are_refused(room, capsys, case, what):
         where = "images[0].uri"
     err = refused(capsys, _write(room, doc), fragment=f"scene.gltf: {where} ")
     assert repr(uri)[:40] in err
+    assert opened == [os.path.realpath(room / "scene.gltf")]  # the scene, nothing else
 
 
 INSIDE = {
