@@ -60,6 +60,8 @@ MAX_COORDINATE = 1e12
 #: up from `python -m benchmarks` style measurements (0.6 kB at 2,000,000 triangles).
 BYTES_PER_COMPONENT = 16
 BYTES_PER_TRIANGLE = 768
+#: ... and per mesh instance (its arrays' and objects' own overhead).
+BYTES_PER_INSTANCE = 2048
 _LIMIT = LIMITS["mesh_scene"]
 #: Component types per attribute (glTF 2.0 3.7.2.1; KHR_mesh_quantization for integers).
 _SEMANTICS = {
@@ -348,7 +350,10 @@ def _check_memory(g: _Gltf, plan, notice) -> list[tuple[int, int, int]]:
             buffers.add(doc["bufferViews"][acc["bufferView"]]["buffer"])
     files = sum(g.buffer_cost(b) for b in sorted(buffers))
     _budget.check(
-        files + BYTES_PER_COMPONENT * values + BYTES_PER_TRIANGLE * triangles,
+        files
+        + BYTES_PER_COMPONENT * values
+        + BYTES_PER_TRIANGLE * triangles
+        + BYTES_PER_INSTANCE * len(keep),
         f"{label}: {triangles:,} triangles in {len(keep):,} mesh instances, {values:,} "
         f"accessor values and {files:,} bytes of buffers",
         "a smaller scene (fewer or simpler meshes)",
