@@ -2,8 +2,10 @@
 
 * glTF (`OUT.gltf`): each `KHR_lights_punctual` light gets the chosen `range` (the extension's
   own property; a light shared by several nodes gets the largest of their ranges) and the
-  answer in `extras.attenfit` (family, parameters, errors, engine properties). Buffers are
-  embedded as `data:` URIs so the copy stands alone wherever it is written.
+  answer in `extras.attenfit` (family, parameters, errors, engine properties). Buffers and
+  image files are embedded as `data:` URIs so the copy stands alone wherever it is written;
+  only files inside the scene's folder are read (`_refs`): a reference outside it is refused
+  before anything is written. The rest of the JSON is kept as written.
 * USD (`OUT.usda`): the composed stage, flattened into one layer (references and sublayers
   resolved, so the copy stands alone), with custom attributes in the `attenfit:` namespace
   on each light prim: `attenfit:family`, `attenfit:range`, `attenfit:error`,
@@ -16,7 +18,7 @@ replaced only with `force`.
 
 from __future__ import annotations
 
-import base64
+import json
 import math
 import os
 from collections.abc import Sequence
@@ -78,22 +80,30 @@ def write_back(
 
 
 def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -> str:
-    from ._gltf import load_gltf
+    from ._gltf import embedded_document
 
-    gltf, buffers = load_gltf(imported.path, imported.path.name)
-    lights = gltf.extensions["KHR_lights_punctual"]["lights"]
+    label = imported.path.name
+    doc = embedded_document(imported.path, label)  # files outside its folder: refused
+    lights = ((doc.get("extensions") or {}).get("KHR_lights_punctual") or {}).get("lights") or []
     for c in choices:
-        d = lights[imported.refs[c.light]]
+        j = imported.refs[c.light]
+        if not (isinstance(j, int) and j < len(lights)):
+            raise BadValueError(f"{label}: changed while it was answered (light {j} is gone)")
+        d = lights[j]
+        where = f"{label}: extensions.KHR_lights_punctual.lights[{j}].extras"
+        extras = d.setdefault("extras", {})
+        if not isinstance(extras, dict):
+            raise BadValueError(
+                f"{where}: is not a JSON object; the answer goes in extras.attenfit"
+            )
+        answers = extras.setdefault("attenfit", [])
+        if not isinstance(answers, list):
+            raise BadValueError(f"{where}.attenfit: is not a list; attenfit appends its answers")
         R = c.range.get("range") if c.range is not None else None
         if R is not None and R > 0 and math.isfinite(R):
-            d["range"] = max(float(R), float(d.get("range", 0.0)) if "range" in d else 0.0)
-        extras = d.setdefault("extras", {})
-        answers = extras.setdefault("attenfit", [])
+            d["range"] = max(float(R), float(d.get("range", 0.0)))
         answers.append({"node_light": c.name, **_answer(c, engine)})
-    for k, buf in enumerate(gltf.buffers or []):
-        buf.uri = "data:application/octet-stream;base64," + base64.b64encode(buffers[k]).decode()
-    gltf.set_binary_blob(None)
-    return gltf.to_json(indent=1) + "\n"
+    return json.dumps(doc, indent=1) + "\n"
 
 
 def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -> str:
