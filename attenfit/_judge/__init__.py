@@ -4,3 +4,9 @@ several candidate models to name (`rank`: one tie-break for every verdict).
 Imports the curves, truth, fitting and shaders stages, and nothing above. The report and the
 scene stage decide through it.
 """
+
+from ._receivers import BANDS as BANDS
+from ._worst import WorstCase as WorstCase
+from ._worst import receiver_error as receiver_error
+from ._worst import typical_error as typical_error
+from ._worst import worst_case as worst_case
