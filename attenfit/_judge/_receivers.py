@@ -29,8 +29,10 @@ straddles the horizon (|cos theta| < sin a, sin a = min(1, r / d)).
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -49,6 +51,7 @@ __all__ = [
     "Z_MIN",
     "Piece",
     "geometry",
+    "local_receivers",
     "pieces",
     "sample",
 ]
@@ -267,17 +270,30 @@ class Piece:
             return _gap_inverse(q, lo, hi)
         if self.kind == "floor":
             h = q[..., 0]
-            r_lo, r_hi = (np.asarray(v) for v in self.rho_limits(jnp.asarray(h)))
+            r_lo, r_hi = (np.asarray(v) for v in _rho_limits(self, jnp.asarray(h)))
             th = (h - self.h0) / (self.h1 - self.h0) if self.h1 > self.h0 else np.zeros_like(h)
             with np.errstate(divide="ignore", invalid="ignore"):
                 tr = np.where(r_hi > r_lo, (q[..., 1] - r_lo) / (r_hi - r_lo), 0.0)
             return np.clip(np.stack([th, tr], -1), 0, 1)
-        s = np.asarray(horizon_sin(self.light, self.rset, jnp.asarray(q)))
+        s = np.asarray(_horizon_sin(self.light, self.rset, jnp.asarray(q)))
         tg = _gap_inverse(q[..., 0], lo, hi)
         if self.light == "sphere":
             return np.clip(np.stack([tg, _theta_inverse(q[..., 1], s)], -1), 0, 1)
         t = np.stack([tg, q[..., 1] / 2, _theta_inverse(q[..., 2], s), q[..., 3] / np.pi], -1)
         return np.clip(t, 0, 1)
+
+
+_horizon_sin = jax.jit(horizon_sin, static_argnums=(0, 1))
+_rho_limits = jax.jit(Piece.rho_limits, static_argnums=0)
+
+
+@functools.partial(jax.jit, static_argnums=0)
+def local_receivers(piece: Piece, x: Float[Array, "*b k"]) -> tuple[Array, Array, Array]:
+    """(coordinates, points, normals) of `piece`'s receivers at box coordinates x, in the
+    light's frame (units of r), compiled once per piece."""
+    q = piece.coords(x)
+    p, n = geometry(piece.light, piece.rset, q)
+    return q, p, n
 
 
 def pieces(light: str, rset: str, band: str) -> tuple[Piece, ...]:
@@ -313,7 +329,7 @@ def sample(piece: Piece, n: int, rng: np.random.Generator) -> np.ndarray:
     if piece.kind == "floor":
         return rng.uniform(0, 1, (n, 2))  # h uniform; rho uniform at that h
     tg = rng.uniform(0, 1, n)
-    gap = np.asarray(_gap_of(jnp.asarray(tg), lo, hi))
+    gap = _gap_of(tg, lo, hi)  # NumPy arithmetic
     theta = np.arccos(rng.uniform(-1, 1, n))
     if piece.light == "sphere":
         q = np.stack([gap, theta], -1)

@@ -44,6 +44,7 @@ from ._receivers import (
     Piece,
     band_gaps,
     geometry,
+    local_receivers,
     pieces,
     sample,
 )
@@ -56,21 +57,26 @@ GRID: Mapping[str, tuple[int, ...]] = {
     "gap": (401,),
     "floor": (97, 97),
     "sphere": (129, 193),
-    "disk": (33, 25, 41, 13),
+    "disk": (21, 17, 33, 9),
 }
 #: Distinct grid maxima the local search starts from.
 SEEDS = 12
 #: Receivers drawn for the typical error (per box), and its quantile.
 TYPICAL_N = 4096
 TYPICAL_Q = 0.95
-#: Receivers whose reference irradiance is below this fraction of the light's radiance L
-#: carry no error: the exact irradiance's rounding, about 1e-19 L (a disk seen edge-on from
-#: far away, a receiver in its plane), would be more than 1e-7 of it. The error tends to a
-#: limit there (both it and the truth vanish together), which the search approaches from
-#: the receivers it keeps.
+#: Receivers of any orientation whose reference (the facing irradiance) is below this
+#: fraction of the light's radiance L carry no error: the exact irradiance of a receiver
+#: whose horizon cuts a disk seen edge-on (far away, or near its plane) has rounding errors
+#: of about 1e-19 L, more than 1e-7 of such a reference. The error tends to a limit there
+#: (the truth and the reference vanish together), which the search approaches from the
+#: receivers it keeps. (Facing and floor receivers see the whole light above their horizon,
+#: where the exact forms have no cancellation: they keep every receiver.)
 REF_MIN = 1e-12
 #: Receivers a compiled evaluation takes (one compilation per model structure and light).
 _BLOCK = 1024
+#: A step counts as a rise when it raises |error| by more than this fraction (rounding
+#: noise does not keep a search walking).
+_RISE = 1e-13
 #: The finite-difference step of the search's gradient, in box coordinates.
 _FD = 1e-6
 
@@ -114,15 +120,18 @@ class WorstCase:
     typical: float
     typical_label: str
     evaluations: int
+    #: True when receivers right next to the worst one carry no error (their reference is
+    #: below `REF_MIN` of the radiance): the error may grow on toward them.
+    edge: bool = False
 
     def orientation(self) -> str:
-        """The receiver's orientation in words: facing, tilted, grazing (the light straddles
-        its horizon) or turned away."""
+        """The receiver's orientation in words: facing the centre, grazing (|n.l| < sin a:
+        a sphere straddles its horizon, a disk may), tilted or turned away."""
         c, s = self.n_dot_l, self.sin_a
         if c > 1 - 1e-9:
             return "facing the centre"
         if abs(c) < s:
-            return "grazing (the light straddles its horizon)"
+            return "grazing"
         return "tilted" if c > 0 else "turned away"
 
     def where(self) -> str:
@@ -133,7 +142,7 @@ class WorstCase:
         return (
             f"on the {SET_LABELS[self.receivers]} at d = {self.d_over_r:.4g} r "
             f"(gap {self.gap_over_r:.3g} r{pos}), n.l = {self.n_dot_l:.3g}, "
-            f"{self.orientation()}"
+            f"{self.orientation()}" + (", at the edge of the receivers judged" if self.edge else "")
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -180,19 +189,19 @@ def _light(emitter: Any) -> str:
     )
 
 
-def _frame(emitter: Any) -> tuple[Array, Array, Array]:
+def _frame(emitter: Any) -> tuple[np.ndarray, np.ndarray, float]:
     """(centre, rotation whose columns are the light frame's x, y, z in the world, radius)."""
-    c = jnp.asarray(emitter.center, jnp.float64)
+    c = np.asarray(emitter.center, np.float64)
     if isinstance(emitter, DiskEmitter):
-        m = jnp.asarray(emitter.normal, jnp.float64)
-        m = m / jnp.linalg.norm(m)
+        m = np.asarray(emitter.normal, np.float64)
+        m = m / np.linalg.norm(m)
     else:
-        m = jnp.array([0.0, 0.0, -1.0])  # a sphere's floors below it, as the report's
-    trial = jnp.where(jnp.abs(m[0]) < 0.9, jnp.array([1.0, 0.0, 0.0]), jnp.array([0.0, 1.0, 0.0]))
-    ex = trial - jnp.dot(trial, m) * m
-    ex = ex / jnp.linalg.norm(ex)
-    ey = jnp.cross(m, ex)
-    return c, jnp.stack([ex, ey, m], -1), jnp.asarray(emitter.radius, jnp.float64)
+        m = np.array([0.0, 0.0, -1.0])  # a sphere's floors below it, as the report's
+    trial = np.array([1.0, 0.0, 0.0]) if abs(m[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ex = trial - np.dot(trial, m) * m
+    ex = ex / np.linalg.norm(ex)
+    ey = np.cross(m, ex)
+    return c, np.stack([ex, ey, m], -1), float(np.asarray(emitter.radius))
 
 
 @eqx.filter_jit
@@ -201,16 +210,18 @@ def _truths(model: AreaModel, emitter: Any, pw: Array, nw: Array) -> Array:
     truth at a receiver there facing the light's centre (the reference of the "any" set)."""
     E_true = irradiance(emitter, pw, nw)
     E_model = area_irradiance(model, emitter, pw, nw)
-    to_c = jnp.asarray(emitter.center, jnp.float64) - pw
+    to_c = jnp.asarray(emitter.center, jnp.float64)[None, :] - pw
     return jnp.stack([E_model, E_true, irradiance(emitter, pw, to_c)])
 
 
 def _relative(parts: np.ndarray, rset: str, emitter: Any) -> np.ndarray:
-    """The report's signed error from `_truths`' rows; NaN where `ref` is below `REF_MIN`
-    times the light's radiance (or not finite)."""
+    """The report's signed error from `_truths`' rows; NaN where `ref` is not finite and
+    positive or, on receivers of any orientation, below `REF_MIN` times the light's radiance."""
     Em, Et, Ef = parts
-    ref = Ef if rset == "any" else Et
-    floor = REF_MIN * float(emitter.intensity) / (math.pi * float(emitter.radius) ** 2)
+    ref, floor = Et, 0.0
+    if rset == "any":
+        ref = Ef
+        floor = REF_MIN * float(emitter.intensity) / (math.pi * float(emitter.radius) ** 2)
     ok = np.isfinite(ref) & (ref > floor)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         return np.where(ok, (Em - Et) / np.where(ok, ref, 1.0), np.nan)
@@ -220,25 +231,35 @@ def _relative(parts: np.ndarray, rset: str, emitter: Any) -> np.ndarray:
 def _receivers_at(piece: Piece, c: Array, rot: Array, r: Array, x: Array) -> tuple[Array, Array]:
     """World points and normals of `piece`'s receivers at box coordinates x."""
     p, n = geometry(piece.light, piece.rset, piece.coords(x))
-    return c + r * (p @ rot.T), n @ rot.T
+    return c[None, :] + r * (p @ rot.T), n @ rot.T
 
 
-def _parts_at(model, emitter, piece: Piece, x: np.ndarray) -> tuple[np.ndarray, ...]:
-    """(signed errors, E_model, E_true, E_facing, points, normals) at box coordinates x, in
-    blocks of `_BLOCK` receivers (one compilation per model structure and light)."""
-    c, rot, r = _frame(emitter)
+def _blocks(model, emitter, piece: Piece | None, x: np.ndarray):
+    """(`_truths` rows, points, normals) in blocks of `_BLOCK` receivers (one compilation per
+    model structure and light): x are box coordinates of `piece`, or with `piece` None the
+    receivers themselves, (n, 6): world points and normals."""
+    c, rot, r = (jnp.asarray(a, jnp.float64) for a in _frame(emitter))
     outs: list[list[np.ndarray]] = [[], [], []]
     for i in range(0, len(x), _BLOCK):
         block = x[i : i + _BLOCK]
         k = len(block)
         if k < _BLOCK:
             block = np.concatenate([block, np.repeat(block[-1:], _BLOCK - k, axis=0)])
-        pw, nw = _receivers_at(piece, c, rot, r, jnp.asarray(block))
+        if piece is None:
+            pw, nw = jnp.asarray(block[:, :3]), jnp.asarray(block[:, 3:])
+        else:
+            pw, nw = _receivers_at(piece, c, rot, r, jnp.asarray(block))
         outs[0].append(np.asarray(_truths(model, emitter, pw, nw))[:, :k])
         outs[1].append(np.asarray(pw)[:k])
         outs[2].append(np.asarray(nw)[:k])
-    parts = np.concatenate(outs[0], axis=1)
-    pts, nrm = np.concatenate(outs[1]), np.concatenate(outs[2])
+    if not outs[0]:
+        return np.zeros((3, 0)), np.zeros((0, 3)), np.zeros((0, 3))
+    return np.concatenate(outs[0], axis=1), np.concatenate(outs[1]), np.concatenate(outs[2])
+
+
+def _parts_at(model, emitter, piece: Piece, x: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(signed errors, E_model, E_true, E_facing, points, normals) at box coordinates x."""
+    parts, pts, nrm = _blocks(model, emitter, piece, x)
     return _relative(parts, piece.rset, emitter), *parts, pts, nrm
 
 
@@ -300,7 +321,7 @@ def _ascend(model, emitter, piece: Piece, x: np.ndarray, f: np.ndarray, step: fl
         y = np.clip(x + eta[:, None] * g / np.where(move, norm, 1.0)[:, None], 0.0, 1.0)
         fy, gy = _with_slopes(model, emitter, piece, y)
         evals += k * (1 + 2 * dim)
-        up = move & (fy > f)
+        up = move & (fy > f + _RISE * np.abs(f))
         x = np.where(up[:, None], y, x)
         f = np.where(up, fy, f)
         g = np.where(up[:, None], gy, g)
@@ -323,7 +344,7 @@ def _compass(model, emitter, piece: Piece, x: np.ndarray, f: np.ndarray, step: f
         evals += 2 * dim * k
         best = np.argmax(fy, axis=1)
         fb = fy[np.arange(k), best]
-        up = live & (fb > f)
+        up = live & (fb > f + _RISE * np.abs(f))
         x = np.where(up[:, None], y[np.arange(k), best], x)
         f = np.where(up, fb, f)
         eta = np.where(up, eta, 0.5 * eta)
@@ -347,6 +368,13 @@ def _search(model, emitter, piece: Piece, grid: Sequence[int] | None, seeds: int
         evals += k1 + k2
     i = int(np.argmax(f))
     return x[i], float(f[i]), grid_max, evals
+
+
+def _at_edge(model, emitter, piece: Piece, x: np.ndarray) -> bool:
+    """Whether receivers next to x (1e-6 of the box away) carry no error (`REF_MIN`)."""
+    dim = len(x)
+    eye = np.concatenate([np.eye(dim), -np.eye(dim)]) * 1e-6
+    return bool(np.any(_eval(model, emitter, piece, np.clip(x[None] + eye, 0.0, 1.0)) < 0))
 
 
 def _grid_counts(piece: Piece) -> tuple[int, ...]:
@@ -386,9 +414,11 @@ def receiver_error(
     m, em, _, sets = _check(model, emitter, "contact", receivers)
     if len(sets) != 1:
         raise BadValueError(f"receivers must name one set of {list(SETS)}, got {receivers!r}")
-    p = jnp.asarray(points, jnp.float64)
-    n = jnp.broadcast_to(jnp.asarray(normals, jnp.float64), p.shape)
-    parts = np.asarray(_truths(m, em, p.reshape(-1, 3), n.reshape(-1, 3)), np.float64)
+    p = np.asarray(points, np.float64)
+    n = np.broadcast_to(np.asarray(normals, np.float64), p.shape)
+    n = n / np.linalg.norm(n, axis=-1, keepdims=True)
+    rows = np.concatenate([p.reshape(-1, 3), n.reshape(-1, 3)], axis=1)
+    parts, _, _ = _blocks(m, em, None, rows)
     return _relative(parts, sets[0], em).reshape(p.shape[:-1])
 
 
@@ -485,7 +515,7 @@ def _grid_key(piece: Piece) -> str:
 def _describe(m, em, piece: Piece, x, grid_max, per_set, typical, typical_n, evals) -> WorstCase:
     e, Em, Et, Ef, pw, nw = (a[0] for a in _parts_at(m, em, piece, x[None, :]))
     ref = Ef if piece.rset == "any" else Et
-    p, n = geometry(piece.light, piece.rset, piece.coords(jnp.asarray(x[None, :])))
+    _, p, n = local_receivers(piece, jnp.asarray(x[None, :]))
     pl = np.asarray(p[0], np.float64)
     d = float(np.linalg.norm(pl))
     r = float(em.radius)
@@ -515,6 +545,7 @@ def _describe(m, em, piece: Piece, x, grid_max, per_set, typical, typical_n, eva
         typical=typical,
         typical_label=_typical_label(typical_n),
         evaluations=evals,
+        edge=_at_edge(m, em, piece, x),
     )
 
 
