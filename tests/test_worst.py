@@ -165,7 +165,7 @@ def test_search_matches_brute_force_on_a_sphere():
 def test_search_matches_brute_force_on_a_disk():
     """vector_disk r to 10 r from a disk: its worst receiver lies against the disk's plane
     past the rim (the limit where the truth and the facing reference vanish together),
-    grazing. A search from a 7 x 7 x 9 x 5 grid against 331,695 receivers built here."""
+    grazing. A search from a 7 x 7 x 9 x 5 grid against 334,125 receivers built here."""
     model = get_area_model("vector_disk")()
     w = worst_case(model, DISK, "near", receivers="any", grid=SMALL, typical_n=0)
     gap = np.geomspace(1, 10, 15)

@@ -37,12 +37,10 @@ from .._errors import BadTypeError, BadValueError
 from .._float64 import in_float64
 from .._truth import DiskEmitter, SphereEmitter, area_irradiance, emitter_from_dict, irradiance
 from ._receivers import (
-    BAND_LABELS,
     BANDS,
     SET_LABELS,
     SETS,
     Piece,
-    band_gaps,
     geometry,
     local_receivers,
     pieces,
@@ -205,7 +203,9 @@ def _frame(emitter: Any) -> tuple[np.ndarray, np.ndarray, float]:
 
 
 @eqx.filter_jit
-def _truths(model: AreaModel, emitter: Any, pw: Array, nw: Array) -> Array:
+def _truths(
+    model: AreaModel, emitter: Any, pw: Float[Array, "n 3"], nw: Float[Array, "n 3"]
+) -> Float[Array, "3 n"]:
     """(E_model, E_true, E_facing) at receivers in world coordinates, stacked: E_facing the
     truth at a receiver there facing the light's centre (the reference of the "any" set)."""
     E_true = irradiance(emitter, pw, nw)
@@ -214,7 +214,7 @@ def _truths(model: AreaModel, emitter: Any, pw: Array, nw: Array) -> Array:
     return jnp.stack([E_model, E_true, irradiance(emitter, pw, to_c)])
 
 
-def _relative(parts: np.ndarray, rset: str, emitter: Any) -> np.ndarray:
+def _relative(parts: Float[np.ndarray, "3 n"], rset: str, emitter: Any) -> Float[np.ndarray, " n"]:
     """The report's signed error from `_truths`' rows; NaN where `ref` is not finite and
     positive or, on receivers of any orientation, below `REF_MIN` times the light's radiance."""
     Em, Et, Ef = parts
@@ -228,7 +228,13 @@ def _relative(parts: np.ndarray, rset: str, emitter: Any) -> np.ndarray:
 
 
 @functools.partial(jax.jit, static_argnums=0)
-def _receivers_at(piece: Piece, c: Array, rot: Array, r: Array, x: Array) -> tuple[Array, Array]:
+def _receivers_at(
+    piece: Piece,
+    c: Float[Array, "3"],
+    rot: Float[Array, "3 3"],
+    r: Float[Array, ""],
+    x: Float[Array, "n k"],
+) -> tuple[Float[Array, "n 3"], Float[Array, "n 3"]]:
     """World points and normals of `piece`'s receivers at box coordinates x."""
     p, n = geometry(piece.light, piece.rset, piece.coords(x))
     return c[None, :] + r * (p @ rot.T), n @ rot.T
@@ -263,7 +269,7 @@ def _parts_at(model, emitter, piece: Piece, x: np.ndarray) -> tuple[np.ndarray, 
     return _relative(parts, piece.rset, emitter), *parts, pts, nrm
 
 
-def _eval(model, emitter, piece: Piece, x: np.ndarray) -> np.ndarray:
+def _eval(model, emitter, piece: Piece, x: Float[np.ndarray, "n k"]) -> Float[np.ndarray, " n"]:
     """|error| at box coordinates x, -1 where it is not defined (the search never goes there)."""
     e = _parts_at(model, emitter, piece, x)[0]
     return np.where(np.isfinite(e), np.abs(np.nan_to_num(e)), -1.0)
@@ -547,9 +553,3 @@ def _describe(m, em, piece: Piece, x, grid_max, per_set, typical, typical_n, eva
         evaluations=evals,
         edge=_at_edge(m, em, piece, x),
     )
-
-
-def band_label(band: str) -> str:
-    """How the decision table names a band ("contact to r", ...), its gaps in r."""
-    lo, hi = band_gaps(band)
-    return f"{BAND_LABELS[band]} (gap {lo:g} r to {hi:g} r)"
