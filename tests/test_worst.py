@@ -245,5 +245,10 @@ def test_bad_arguments_are_named():
         worst_case(lambda d: 1 / d**2, SPHERE, "near")
     with pytest.raises(BadTypeError, match="emitter"):
         worst_case(InverseSquare(), "sphere", "near")
+    # a window is judged only within half its range, as the report judges it
+    from attenfit._curves import UnrealWindow
+
+    with pytest.raises(BadValueError, match="range/2"):
+        worst_case(UnrealWindow(r_max=10 * R), SPHERE, "near")
     with pytest.raises(BadValueError, match="two-sided"):
         worst_case(InverseSquare(), DiskEmitter([0, 0, 0], [0, 0, 1], R, two_sided=True), "near")

@@ -41,6 +41,7 @@ from ._receivers import (
     SET_LABELS,
     SETS,
     Piece,
+    band_gaps,
     geometry,
     local_receivers,
     pieces,
@@ -405,6 +406,23 @@ def _check(model: Any, emitter: Any, band: str, receivers: str | Sequence[str]):
     return _f64(m), emitter_from_dict(emitter.to_dict()), light, sets
 
 
+def _check_window(model: AreaModel, emitter: Any, band: str) -> None:
+    """Refuse a windowed curve on a band that reaches past half its range: the report judges
+    a window only where d <= range/2 (beyond, it is off by design), and only on the bands
+    that lie wholly inside it."""
+    if not isinstance(model, PointLight) or type(model.family).window == "none":
+        return
+    rng = model.family.range_distance()
+    if rng is None:
+        return
+    d_max = (1.0 + band_gaps(band)[1]) * float(emitter.radius)  # the band's farthest receiver
+    if d_max > 0.5 * float(np.asarray(rng)):
+        raise BadValueError(
+            f"{model.family.name} has a window of range {float(np.asarray(rng)):.4g}: it is "
+            f"judged only where d <= range/2, and band {band!r} reaches d = {d_max:.4g}"
+        )
+
+
 @in_float64
 def receiver_error(
     model: Any,
@@ -491,8 +509,12 @@ def worst_case(
             overriding `GRID` (a coarser grid is faster and may miss narrow peaks).
         seeds: distinct grid maxima the local search starts from.
         typical_n: random receivers per set for `WorstCase.typical` (0: not computed).
+
+    A windowed curve is judged only on bands that lie wholly within half its range (as the
+    report does); others raise `BadValueError`.
     """
     m, em, light, sets = _check(model, emitter, band, receivers)
+    _check_window(m, em, band)
     if seeds < 1:
         raise BadValueError(f"seeds must be >= 1, got {seeds!r}")
     best: tuple[float, Piece, np.ndarray, float] | None = None
