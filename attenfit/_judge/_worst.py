@@ -7,9 +7,12 @@ irradiance, with the report's error measure (`attenfit._report._metrics.receiver
 `(E_model - E_true) / ref`, `ref` the truth itself on the facing and floor receivers and,
 on receivers of any orientation, the truth at a receiver there facing the light's centre.
 The search is a dense grid over the set's box of coordinates, then a local maximisation
-from the best distinct grid points: projected gradient ascent on |error| (JAX's gradient
-through the exact irradiance), then a compass search with halving steps (robust where the
-error has a kink: the point-light model's `max(0, n.l)`, a model's clamps), twice over.
+from the best distinct grid points: projected gradient ascent on |error| (slopes by central
+differences: compiling JAX's gradient through the disk's exact irradiance takes six times as
+long as its value, and the error has kinks anyway), then a compass search with halving
+steps (robust at a kink: the point-light model's `max(0, n.l)`, a model's clamps), twice
+over. Evaluations go in fixed blocks of `_BLOCK` receivers: one compilation per model
+structure and light.
 Each step is taken only when it raises the error, so the result is never below the grid's
 maximum, and every value it reports is an evaluated receiver's error, never above the
 supremum.
