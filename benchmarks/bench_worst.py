@@ -25,7 +25,7 @@ import numpy as np
 import attenfit
 from attenfit._curves import get_area_model, get_family
 from attenfit._judge import worst_case
-from attenfit._judge._receivers import BAND_LABELS, pieces
+from attenfit._judge._receivers import GAP_BAND_LABELS, pieces
 from attenfit._judge._worst import GRID, _as_model, _eval, _f64, _grid, _search
 
 
@@ -61,7 +61,7 @@ def rejudge(rep: Any) -> list[dict[str, Any]]:
             cache[key] = worst_case(model, emitters[e["config"]], e["band"])
             w = cache[key]
             print(
-                f"  judged {label} on the {e['kind']}, {BAND_LABELS[e['band']]}: "
+                f"  judged {label} on the {e['kind']}, {GAP_BAND_LABELS[e['band']]}: "
                 f"{_pct(w.error)} ({time.perf_counter() - t0:.1f} s)",
                 flush=True,
             )
@@ -85,7 +85,7 @@ def table(rows: list[dict[str, Any]]) -> str:
         else:
             verdict = "**fails**"
         lines.append(
-            f"| {r['kind']} | {BAND_LABELS[r['band']]} | {_pct(r['tolerance'])} | "
+            f"| {r['kind']} | {GAP_BAND_LABELS[r['band']]} | {_pct(r['tolerance'])} | "
             f"{r['label']} | {_pct(r['error'])} | {_pct(w.error)} | {w.where()} | "
             f"{_pct(w.typical)} | {verdict} |"
         )
@@ -106,7 +106,7 @@ def brute_force(model: Any, emitter: Any, light: str, band: str, rset: str, fine
     t_brute = time.perf_counter() - t0
     return {
         "case": f"{model.name if hasattr(model, 'name') else model} on the {light}, "
-        f"{BAND_LABELS[band]}, {rset}",
+        f"{GAP_BAND_LABELS[band]}, {rset}",
         "grid": "x".join(map(str, GRID[piece.light if piece.kind == "any" else piece.kind])),
         "grid_max": grid_max,
         "found": found,

@@ -5,7 +5,7 @@ Imports the curves, truth, fitting and shaders stages, and nothing above. The re
 scene stage decide through it.
 """
 
-from ._receivers import BANDS as BANDS
+from ._receivers import GAP_BANDS as GAP_BANDS
 from ._worst import WorstCase as WorstCase
 from ._worst import receiver_error as receiver_error
 from ._worst import typical_error as typical_error

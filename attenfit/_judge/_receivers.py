@@ -40,12 +40,12 @@ from jaxtyping import Array, Float
 from .._errors import BadValueError
 
 __all__ = [
-    "BANDS",
-    "BAND_LABELS",
     "CONTACT",
     "FAR_LIMIT",
     "FLOOR_HEIGHT",
     "FLOOR_REACH",
+    "GAP_BANDS",
+    "GAP_BAND_LABELS",
     "SETS",
     "SET_LABELS",
     "Z_MIN",
@@ -58,12 +58,12 @@ __all__ = [
 
 #: The decision table's bands on the gap from the light's surface, in units of r (the
 #: report's `_metrics.GAP_BANDS`): contact to r, r to 10 r, beyond 10 r (to `FAR_LIMIT`).
-BANDS: dict[str, tuple[float, float]] = {
+GAP_BANDS: dict[str, tuple[float, float]] = {
     "contact": (0.0, 1.0),
     "near": (1.0, 10.0),
     "far": (10.0, math.inf),
 }
-BAND_LABELS: dict[str, str] = {
+GAP_BAND_LABELS: dict[str, str] = {
     "contact": "contact to r",
     "near": "r to 10 r",
     "far": "beyond 10 r",
@@ -95,9 +95,9 @@ _WARP = (0.25, 0.75)
 
 def band_gaps(band: str) -> tuple[float, float]:
     """The band's gaps (lo, hi) in r, contact read as `CONTACT`, beyond 10 r up to `FAR_LIMIT`."""
-    if band not in BANDS:
-        raise BadValueError(f"band must be one of {list(BANDS)}, got {band!r}")
-    lo, hi = BANDS[band]
+    if band not in GAP_BANDS:
+        raise BadValueError(f"band must be one of {list(GAP_BANDS)}, got {band!r}")
+    lo, hi = GAP_BANDS[band]
     return max(lo, CONTACT), min(hi, FAR_LIMIT)
 
 

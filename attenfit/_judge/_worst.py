@@ -40,7 +40,7 @@ from .._errors import BadTypeError, BadValueError
 from .._float64 import in_float64
 from .._truth import DiskEmitter, SphereEmitter, area_irradiance, emitter_from_dict, irradiance
 from ._receivers import (
-    BANDS,
+    GAP_BANDS,
     SET_LABELS,
     SETS,
     Piece,
@@ -397,8 +397,8 @@ def _grid_counts(piece: Piece) -> tuple[int, ...]:
 def _check(model: Any, emitter: Any, band: str, receivers: str | Sequence[str]):
     m = _as_model(model)
     light = _light(emitter)
-    if band not in BANDS:
-        raise BadValueError(f"band must be one of {list(BANDS)}, got {band!r}")
+    if band not in GAP_BANDS:
+        raise BadValueError(f"band must be one of {list(GAP_BANDS)}, got {band!r}")
     if isinstance(receivers, str):
         sets = SETS if receivers == "all" else (receivers,)
     else:
