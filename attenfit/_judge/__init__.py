@@ -8,3 +8,8 @@ scene stage decide through it.
 from ._rank import Contender as Contender
 from ._rank import Ranking as Ranking
 from ._rank import rank as rank
+from ._receivers import GAP_BANDS as GAP_BANDS
+from ._worst import WorstCase as WorstCase
+from ._worst import receiver_error as receiver_error
+from ._worst import typical_error as typical_error
+from ._worst import worst_case as worst_case
