@@ -70,6 +70,7 @@ def area_candidates(cfg: Any, report: Any) -> list[Candidate]:
                 kind="area model",
                 set_errors=per_set,
                 n_params=len(model.params()),
+                build=lambda model=model: model,
             )
         )
     return out

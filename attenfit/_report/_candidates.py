@@ -9,7 +9,7 @@ both rank through `attenfit._judge.rank` (`Candidate.contender`).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from .._judge import Contender
@@ -44,6 +44,8 @@ class Candidate:
     #: Per receiver set, the largest |error| per band (what `errors` is the maximum of).
     set_errors: Mapping[str, Mapping[str, float | None]] = dataclasses.field(default_factory=dict)
     n_params: int = 0
+    #: Makes the model itself (for its worst case, `_verify`); None where it cannot be made.
+    build: Callable[[], Any] | None = dataclasses.field(default=None, compare=False, repr=False)
 
     @property
     def label(self) -> str:

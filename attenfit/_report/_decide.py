@@ -26,6 +26,7 @@ from ._candidates import SET_LABELS, Candidate, judge
 from ._candidates import SETS as SETS  # the summary's order of the sets, as before
 from ._markdown import fmt_num, fmt_pct, fmt_stops, md_row
 from ._metrics import GAP_BAND_LABELS, GAP_BANDS
+from ._verify import Verifier
 
 #: The tolerances of the decision table (largest |error| on the receivers that matter).
 TOLERANCES: tuple[float, ...] = (0.01, 0.05, 0.2)
@@ -96,7 +97,14 @@ def _row_candidate(report, row: Mapping[str, Any], r: float, absolute: Sequence[
         worst=worst,
         set_errors=per_set,
         n_params=len(row.get("params") or {}),
+        build=lambda: _model(row),
     )
+
+
+def _model(row: Mapping[str, Any]) -> Any:
+    """The family of a result row with the row's parameter values."""
+    values = {k: np.asarray(v, dtype=np.float64) for k, v in (row.get("params") or {}).items()}
+    return get_family(row["family"])(**values)
 
 
 def _absolute(report, fam: str, cfg) -> tuple[str, ...]:
@@ -144,7 +152,11 @@ def rank_band(cands: Iterable[Candidate], band: str, tol: float) -> Ranking[Cand
 
 
 def decide(
-    report, sources: Sequence[Callable[[Any, Any], Iterable[Candidate]]] = SOURCES
+    report,
+    sources: Sequence[Callable[[Any, Any], Iterable[Candidate]]] = SOURCES,
+    *,
+    verify: bool = True,
+    progress: Callable[[str], None] | None = None,
 ) -> list[dict[str, Any]]:
     """The decision table's entries: one per configuration with receivers x band x tolerance.
 
@@ -152,23 +164,23 @@ def decide(
     `cost`, `why` (one sentence), `model_kind`; `model` None where nothing meets the
     tolerance (then `best`, `error` and `why` are about the closest, of every model class).
     `sources` give the candidates tried where no distance curve meets a tolerance (`SOURCES`:
-    the area models)."""
+    the area models). With `verify` (the report's way), a model is named only when its worst
+    case over the band (`_verify`, `attenfit._judge.worst_case`) is within the tolerance, and
+    `error` is that worst case, `where` where it lies and `sampled` the largest error over the
+    sampled receivers; without it, the sampled errors decide (a lower bound: for tests of the
+    ranking alone)."""
     out = []
     for cfg in report.configs:
         if not cfg.receivers:
             continue
         cands = candidates(report, cfg)
+        check = Verifier(cfg, progress) if verify else None
         extra: list[Candidate] | None = None
         for band in GAP_BANDS:
             judged = [c for c in cands if c.errors.get(band) is not None]
             if not judged:
                 continue
             for tol in TOLERANCES:
-                ranking = rank_band(judged, band, tol)
-                if ranking.best is None:
-                    if extra is None:
-                        extra = [x for fn in sources for x in fn(cfg, report)]
-                    ranking = rank_band([*judged, *extra], band, tol)
                 entry = {
                     "config": cfg.name,
                     "kind": cfg.kind,
@@ -176,15 +188,50 @@ def decide(
                     "band": band,
                     "tolerance": tol,
                 }
-                if ranking.best is not None:
-                    entry.update(_chosen(ranking.best.item, judged, band, tol))
+                pool = judged
+                pick = _pick(rank_band(pool, band, tol), band, tol, check)
+                if pick is None:
+                    if extra is None:
+                        extra = [x for fn in sources for x in fn(cfg, report)]
+                    pool = [*judged, *extra]
+                    pick = _pick(rank_band(pool, band, tol), band, tol, check)
+                if pick is not None:
+                    entry.update(_chosen(pick[0], judged, band, tol, check))
+                    entry.update(_worst_fields(pick[0], pick[1], band, entry["why"]))
                 else:
-                    entry.update(_none_within(ranking, judged, band, tol))
+                    entry.update(_none_within(rank_band(pool, band, tol), judged, band, tol, check))
                 out.append(entry)
     return out
 
 
-def _chosen(best: Candidate, judged: Sequence[Candidate], band: str, tol: float) -> dict:
+def _pick(ranking: Ranking[Candidate], band: str, tol: float, check: Verifier | None):
+    """The cheapest candidate within `tol`: by its worst case with a `Verifier`, else by its
+    sampled error; `(candidate, worst case or None)`, or None."""
+    if check is None:
+        return None if ranking.best is None else (ranking.best.item, None)
+    return check.first_holding(ranking.within, band, tol)
+
+
+def _worst_fields(c: Candidate, w: Any, band: str, why: str) -> dict[str, Any]:
+    """An entry's error (its worst case), where it lies, and the sampled error beside it."""
+    if w is None:
+        return {}
+    if "its largest error is" not in why:
+        why += f" Its worst case: {fmt_pct(w.error)} {w.where()}."
+    return {"error": w.error, "where": w.where(), "sampled": c.errors.get(band), "why": why}
+
+
+def _error(c: Candidate, band: str, check: Verifier | None) -> tuple[float, str]:
+    """`c`'s error on `band` (its worst case where searched) and where it lies, in words."""
+    w = check.worst(c, band) if check is not None else None
+    if w is None:
+        return c.errors[band], _where(c, band)
+    return w.error, f" {w.where()}"
+
+
+def _chosen(
+    best: Candidate, judged: Sequence[Candidate], band: str, tol: float, check: Verifier | None
+) -> dict:
     """The entry's fields for the cheapest candidate within `tol`, with why."""
     cheaper = [
         c for c in judged if c.cost is not None and best.cost is not None and c.cost < best.cost
@@ -192,13 +239,17 @@ def _chosen(best: Candidate, judged: Sequence[Candidate], band: str, tol: float)
     near = rank_band(cheaper, band, tol).closest
     if near is not None:
         n = near.item
+        # within by sample yet cheaper: its worst case ruled it out (and is known)
+        err, where = _error(n, band, check) if n.errors[band] <= tol else (n.errors[band], "")
+        at_least = "" if check is None or n.errors[band] <= tol else "at least "
         why = (
             f"The cheapest within {fmt_pct(tol)}; the best cheaper curve, "
             f"`{n.model}` {n.mode} (cost {fmt_num(n.cost)}), is "
-            f"{fmt_pct(n.errors[band])} off{_where(n, band)}."
+            f"{at_least}{fmt_pct(err)} off{where or _where(n, band)}."
         )
     elif best.cost is not None:
-        why = f"The cheapest curve of all; its largest error is{_where(best, band) or ' here'}."
+        where = _error(best, band, check)[1] if check is not None else _where(best, band)
+        why = f"The cheapest curve of all; its largest error is{where or ' here'}."
     else:
         why = f"Cost not measured: the smallest error{_where(best, band)}."
     if best.mode == "fitted":
@@ -215,16 +266,28 @@ def _chosen(best: Candidate, judged: Sequence[Candidate], band: str, tol: float)
 
 
 def _none_within(
-    ranking: Ranking[Candidate], judged: Sequence[Candidate], band: str, tol: float
+    ranking: Ranking[Candidate],
+    judged: Sequence[Candidate],
+    band: str,
+    tol: float,
+    check: Verifier | None,
 ) -> dict:
     """The entry's fields where no candidate is within `tol`: the closest, and why."""
     top = (ranking.closest or ranking.outside[0]).item
     assert top is not None
+    err, where = top.errors[band], _where(top, band)
+    if check is not None:
+        sampled = [c for c in (*ranking.within, *ranking.outside) if c.error is not None]
+        by_error = [c.item for c in sorted(sampled, key=lambda c: c.error) if c.item is not top]
+        found = check.closest([top, *by_error], band)
+        if found is not None:
+            top, w = found
+            err, where = w.error, f" {w.where()}"
     if top.kind != "distance curve":  # an area model is closest, and still not within
         curve = rank_band(judged, band, tol).closest
         reason = "; no model of either class meets the tolerance" + (
             f" (the closest distance curve, `{curve.item.model}` {curve.item.mode}, is "
-            f"{fmt_pct(curve.error)} off)"
+            f"{fmt_pct(_error(curve.item, band, check)[0])} off)"
             if curve is not None and curve.item is not None
             else ""
         )
@@ -240,7 +303,7 @@ def _none_within(
         reason = (
             ", where part of the light sinks below a tilted receiver's horizon "
             f"(within {fmt_pct(tol)} on the facing and floor receivers)"
-            if horizon
+            if horizon and check is None
             else "; an area-light model is needed here"
         )
     return {
@@ -248,10 +311,11 @@ def _none_within(
         "mode": top.mode,
         "model_kind": top.kind,
         "params": top.params,
-        "error": top.errors[band],
+        "error": err,
         "cost": top.cost,
-        "why": f"The closest is {fmt_pct(top.errors[band])} off{_where(top, band)}{reason}.",
+        "why": f"The closest is {fmt_pct(err)} off{where}{reason}.",
         "best": top.model,
+        "sampled": top.errors[band],
     }
 
 
@@ -303,8 +367,11 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
         )
         last = group
     note = (
-        "The largest |error| of a model's irradiance over three receiver sets in each band "
-        "(facing sweep, floors from contact to 10 r, random orientations; see the summary), "
+        "Max error: the worst |error| of the model's irradiance over every receiver of the band "
+        "that the three receiver sets span (facing, floors from contact to 10 r, any "
+        "orientation), found by a search from contact (docs/judging.md), and where it lies; "
+        "the sampled receivers of the summary only rule models out (their largest error is a "
+        "lower bound of the worst). "
         "bands on the distance from the light's surface (d − r for a sphere, to the nearest point of a disk); "
         "*in stops*: the most that error can be in stops, −log2(1 − error) (a stop is a "
         "doubling of light; 0.1 stop is about the smallest step a viewer sees). "

@@ -62,6 +62,8 @@ class Report:
     )
     #: The Mitsuba witness (`_witness.witness_section`), set by `attenfit report`; or None.
     witness: Any = None
+    #: The decision table's entries once judged (`decisions`: worst cases are searched once).
+    _decisions: list[dict[str, Any]] | None = dataclasses.field(default=None, repr=False)
 
     # ------------------------------------------------------------------ access
     def result(self, family: str, config: str, mode: str = "published") -> dict[str, Any]:
@@ -180,8 +182,14 @@ class Report:
         return _summary_markdown(self)
 
     def decisions(self) -> list[dict[str, Any]]:
-        """The decision table's entries, "Which curve for which light" (`_decide.decide`)."""
-        return decide(self)
+        """The decision table's entries, "Which curve for which light" (`_decide.decide`),
+        each named model held to its worst case (searched on the first call)."""
+        if self._decisions is None:
+            from .. import _progress
+
+            _progress.stage("decision table: each named model's worst case, searched")
+            self._decisions = decide(self)
+        return self._decisions
 
     def decision_markdown(self) -> str:
         """The decision table as Markdown (empty without a light that has receiver sets)."""

@@ -1,0 +1,75 @@
+"""The decision table's verdicts held to their worst case (docs/judging.md, docs/report.md).
+
+A candidate's errors in `_candidates` are the largest over the report's sampled receivers: a
+lower bound of its worst case, enough to rule a model out, not to name it. A verdict names a
+model only once `attenfit._judge.worst_case` has searched the band's whole receiver space
+(from contact, every orientation) and found its largest error within the tolerance; the
+"closest" where nothing holds is the smallest worst case of the few closest by sample.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from .._errors import BadValueError
+from .._judge import WorstCase, typical_error, worst_case
+from ._candidates import Candidate
+
+__all__ = ["Verifier"]
+
+#: How many of the closest candidates by sample have their worst case searched for "closest".
+CLOSEST_SEARCHED = 3
+
+
+class Verifier:
+    """Worst cases of one configuration's candidates, each searched once per band."""
+
+    def __init__(self, cfg: Any, progress: Callable[[str], None] | None = None):
+        self.cfg = cfg
+        self.progress = progress
+        self._memo: dict[tuple[str, str, str], WorstCase | None] = {}
+
+    def worst(self, c: Candidate, band: str) -> WorstCase | None:
+        """`c`'s worst case on `band` of the configuration's light (None: it cannot be judged
+        there, a window whose range/2 ends inside the band, or no model to build)."""
+        key = (c.label, c.params, band)
+        if key not in self._memo:
+            if self.progress is not None:
+                self.progress(f"worst case: {c.label} on {self.cfg.name}, {band}")
+            model = c.build() if c.build is not None else None
+            try:
+                self._memo[key] = (
+                    None
+                    if model is None
+                    else worst_case(model, self.cfg.emitter, band, typical_n=0)
+                )
+            except BadValueError:
+                self._memo[key] = None
+        return self._memo[key]
+
+    def first_holding(
+        self, ranked: Sequence[Any], band: str, tol: float
+    ) -> tuple[Candidate, WorstCase] | None:
+        """The first of `ranked` (contenders, cheapest first) whose worst case is within `tol`."""
+        for contender in ranked:
+            w = self.worst(contender.item, band)
+            if w is not None and w.error <= tol:
+                return contender.item, w
+        return None
+
+    def closest(
+        self, ranked_by_error: Sequence[Candidate], band: str
+    ) -> tuple[Candidate, WorstCase] | None:
+        """The smallest worst case among the `CLOSEST_SEARCHED` closest candidates by sample."""
+        found = [(c, self.worst(c, band)) for c in ranked_by_error[:CLOSEST_SEARCHED]]
+        found = [(c, w) for c, w in found if w is not None]
+        return min(found, key=lambda cw: (cw[1].error, cw[0].cost or 0.0)) if found else None
+
+    def typical(self, c: Candidate, band: str) -> float | None:
+        """The 95th percentile of `c`'s |error| over random receivers of the band."""
+        model = c.build() if c.build is not None else None
+        try:
+            return None if model is None else typical_error(model, self.cfg.emitter, band)
+        except BadValueError:
+            return None
