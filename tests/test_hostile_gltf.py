@@ -699,3 +699,16 @@ def test_fuzz_gltf_json_never_an_internal_error(tmp_path_factory, data):
     assert "internal error" not in text and "\n" not in text.strip(), text
     if code == 0:
         json.loads((folder / "back.gltf").read_text())
+
+
+def test_names_that_look_like_mathtext_are_drawn_as_text(room, tmp_path):
+    """A light named `$\\frac$` (matplotlib would parse it as mathtext and fail) is answered,
+    and its name is drawn as it is in the --out figure."""
+    from attenfit.cli import main
+
+    doc = scene_doc()
+    doc["extensions"]["KHR_lights_punctual"]["lights"][0]["name"] = "$\\frac{a$ bulb"
+    path = _write(room, doc, name="$x$.gltf")
+    out = tmp_path / "answer"
+    assert main(["scene", str(path), *ARGS, "--out", str(out)]) == 0
+    assert any(out.rglob("*.png"))

@@ -372,6 +372,11 @@ def _num(v: Any) -> str:
     return str(v)
 
 
+def _text(text: str) -> str:
+    """A scene's own names as text, never matplotlib mathtext (`$...$` in a light's name)."""
+    return text.replace("$", r"\$")
+
+
 def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
     """Each light's checked error against distance (its final curve at its receivers), the
     tolerance dashed and each chosen range dotted; `(fig, ax)`, never shown."""
@@ -389,7 +394,7 @@ def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
             o = np.argsort(d)
             line = ax.plot(
                 d[o], np.maximum(e[o], floor), "os^vDP"[k % 6], ms=2.5, alpha=0.6,
-                label=f"{c.name}: {c.family} (max {pct(c.checked_error)})",
+                label=_text(f"{c.name}: {c.family} (max {pct(c.checked_error)})"),
             )[0]  # fmt: skip
             R = c.range.get("range") if c.range else None
             if R:
@@ -399,7 +404,7 @@ def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
         ax.set_xlabel("distance from the light's centre (m); dotted: the chosen range")
         ax.set_ylabel(f"checked error (< {floor:.0e} drawn at it)")
         eng = f" for {imported.engine.name}" if imported.engine else ""
-        ax.set_title(f"{imported.path.name}{eng}: each light's final curve at its receivers")
+        ax.set_title(_text(f"{imported.path.name}{eng}: each light's final curve at its receivers"))
         ax.legend(fontsize=7, loc="best")
         fig.tight_layout()
     return fig, ax
