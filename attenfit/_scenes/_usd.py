@@ -49,7 +49,7 @@ from .. import _budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from ._sample import Mesh, check_mesh, transform_normals
 from ._types import SceneLight
-from ._usd_layers import USD_SUFFIXES, UsdLayers, pxr_error, usd_layers
+from ._usd_layers import MAX_PRIMS, USD_SUFFIXES, UsdLayers, pxr_error, usd_layers
 
 __all__ = ["USD_SUFFIXES", "UsdLight", "read_usd"]
 
@@ -103,9 +103,6 @@ class UsdLight:
 #: against the memory budget before any is triangulated.
 BYTES_PER_TRIANGLE = 1024
 BYTES_PER_POINT = 128
-#: The most prims a scene's traversal visits (instance proxies counted): a few instanced
-#: prims can stand for billions.
-MAX_PRIMS = 1_000_000
 
 
 def read_usd(

@@ -28,18 +28,35 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import re
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from .. import _budget
 from .._errors import DataFileError
 from .._input import LIMITS, check_file
 
-__all__ = ["USD_SUFFIXES", "UsdLayers", "pxr_error", "usd_layers"]
+__all__ = [
+    "MAX_PRIMS",
+    "USD_SUFFIXES",
+    "UsdLayers",
+    "composed_prims_bound",
+    "pxr_error",
+    "usd_layers",
+]
 
 USD_SUFFIXES = (".usd", ".usda", ".usdc")
 #: The most layers one scene may hold (a scene exported from a DCC has a handful).
 MAX_LAYERS = 4096
+#: The most prims a scene may compose (instance proxies counted; `composed_prims_bound`):
+#: usd-core composes and attenfit visits about 60,000 a second.
+MAX_PRIMS = 200_000
+#: The deepest nesting a scene may have, of brackets in a text layer and of composed prims:
+#: usd-core's parser and composition recurse, and crash (a segmentation fault, not an
+#: error) on a text layer of 100,000 nested prims or dictionaries; 30,000 passed.
+MAX_NESTING = 1000
 #: Memory usd-core needs per byte of a layer while it holds it: a text layer's parser peaked
 #: at 30.6 bytes per byte (an 8 MB `.usda` of arrays), rounded up; a binary (crate) layer
 #: is mapped and its values read when asked for (its meshes are estimated in `_usd`).
@@ -123,10 +140,39 @@ def _open_layer(real: str, label: str, what: str):
     return layer
 
 
-def _memory(real: str, size: int) -> int:
-    with open(real, "rb") as fh:  # a regular file: checked just before
-        crate = fh.read(len(_CRATE_MAGIC)) == _CRATE_MAGIC
-    return size * (BYTES_PER_CRATE_BYTE if crate else BYTES_PER_TEXT_BYTE)
+# What may hold brackets that do not nest in a text layer: strings, asset paths, prim paths
+# (variant selections) and comments, blanked before the brackets are counted.
+_USDA_OPAQUE = re.compile(
+    rb'"""(?:[^\\]|\\.)*?"""|\'\'\'(?:[^\\]|\\.)*?\'\'\'|"(?:[^"\\\n]|\\.)*"'
+    rb"|'(?:[^'\\\n]|\\.)*'|@@@.*?@@@|@[^@\n]*@|<[^<>\n]*>|#[^\n]*",
+    re.S,
+)
+_STEP = np.zeros(256, np.int8)
+_STEP[list(b"{([")] = 1
+_STEP[list(b"})]")] = -1
+
+
+def _nesting(text: bytes) -> int:
+    """The deepest nesting of brackets in a text layer (strings and comments blanked)."""
+    steps = _STEP[np.frombuffer(_USDA_OPAQUE.sub(b"", text), np.uint8)]
+    run = np.cumsum(steps[steps != 0], dtype=np.int64)
+    return int(run.max(initial=0))
+
+
+def _check_layer(real: str, size: int, label: str, what: str) -> int:
+    """The memory usd-core needs for the layer `real` (a regular file of `size` bytes, just
+    checked); a text layer nested deeper than `MAX_NESTING` is refused before it is parsed."""
+    with open(real, "rb") as fh:
+        head = fh.read(len(_CRATE_MAGIC))
+        if head == _CRATE_MAGIC:
+            return size * BYTES_PER_CRATE_BYTE
+        depth = _nesting(head + fh.read(size))
+    if depth > MAX_NESTING:
+        raise DataFileError(
+            f"{label}: {what}nests brackets {depth:,} deep; attenfit reads at most "
+            f"{MAX_NESTING:,} levels (usd-core's parser recurses)"
+        )
+    return size * BYTES_PER_TEXT_BYTE
 
 
 def _resolve(layer, asset: str, folder: str, label: str, what: str) -> tuple[str, str]:
@@ -176,12 +222,15 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
     size = check_file(path, f"scene file {label!r}", limit)
     real = os.path.realpath(path)
     folder = os.path.dirname(real)
-    total = _memory(real, size)
+    total = _check_layer(real, size, label, "")
     _budget.check(total, f"{label}: its root layer", "a smaller scene")
     root = _open_layer(real, label, "")
     files, layers = [real], [root]
     seen = {real}
     queue = [root]
+    by_real = {real: root}
+    edges: dict[tuple[str, str], str] = {}  # (layer, asset path) -> the real path it names
+    root_stack = {real}  # the root layer and its sublayers, recursively
     while queue:
         layer = queue.pop(0)
         where = f"layer {_rel(layer.realPath, folder)!r}"
@@ -194,6 +243,9 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
         for kind, asset in deps + _clip_paths(layer, label, where):
             what = f"{kind} {asset!r} in {where}"
             dep_path, dep_real = _resolve(layer, asset, folder, label, f"{kind} in {where}")
+            edges[(layer.realPath, asset)] = dep_real
+            if kind == "sublayer" and os.path.realpath(layer.realPath) in root_stack:
+                root_stack.add(dep_real)
             if dep_real in seen:
                 continue
             seen.add(dep_real)
@@ -203,7 +255,7 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
                     f"most {MAX_LAYERS}"
                 )
             dep_size = check_file(dep_path, f"{label}: {what}", limit)
-            total += _memory(dep_real, dep_size)
+            total += _check_layer(dep_real, dep_size, label, f"{what}: ")
             _budget.check(
                 total,
                 f"{label}: its {len(seen)} layers (up to {what})",
@@ -212,5 +264,99 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
             dep = _open_layer(dep_real, label, f"{what}: ")
             files.append(dep_real)
             layers.append(dep)
+            by_real[dep_real] = dep
             queue.append(dep)
+    bound, depth = composed_prims_bound(layers, by_real, edges, root_stack, MAX_PRIMS)
+    if bound > MAX_PRIMS:
+        raise DataFileError(
+            f"{label}: its references, payloads, inherits and instances compose more than "
+            f"{MAX_PRIMS:,} prims; attenfit reads at most {MAX_PRIMS:,}"
+        )
+    if depth > MAX_NESTING:
+        raise DataFileError(
+            f"{label}: its prims (references followed) nest up to {depth:,} deep; attenfit "
+            f"reads at most {MAX_NESTING:,} levels"
+        )
     return UsdLayers(root, folder, tuple(files), tuple(layers), total)
+
+
+def composed_prims_bound(layers, by_real, edges, root_stack, cap: int) -> tuple[int, int]:
+    """Upper bounds on the prims usd-core composes for the stage (instance proxies
+    counted; saturating just above `cap`) and on their nesting depth, from the layers' prim
+    specs alone.
+
+    Every layer's specs are pooled by path (variants' specs as their prim's): a prim at path
+    P counts 1, plus its children, plus what each of its arcs brings (references and
+    payloads: the target prim, or the target layer's default prim; inherits and
+    specializes: the class). Summing where usd-core merges same-named children only
+    overestimates. A handful of prims referencing each other can stand for billions
+    (`/L1` holding four references to `/L0`, `/L2` four to `/L1`, ...): usd-core takes
+    minutes composing them, and this bound refuses them first. An arc that closes a cycle
+    counts nothing (usd-core drops it too)."""
+    from pxr import Sdf
+
+    kids: dict[str, set[str]] = {}
+    arcs: dict[str, set[str]] = {}
+    roots: set[str] = set()
+    for layer in layers:
+        lreal = os.path.realpath(layer.realPath)
+        stack = [(spec, None) for spec in layer.pseudoRoot.nameChildren]
+        while stack:
+            spec, parent = stack.pop()
+            path = spec.path.StripAllVariantSelections()
+            key = str(path)
+            if parent is None and spec.path.IsRootPrimPath() and lreal in root_stack:
+                roots.add(key)
+            if key != "/" and not str(spec.path).endswith("}"):  # a variant is its prim's
+                kids.setdefault(str(path.GetParentPath()), set()).add(key)
+            out = arcs.setdefault(key, set())
+            for lst in (spec.referenceList, spec.payloadList):
+                for item in lst.GetAddedOrExplicitItems():
+                    target = item.primPath
+                    if item.assetPath:
+                        dep = by_real.get(edges.get((layer.realPath, item.assetPath), ""))
+                        if target.isEmpty and dep is not None and dep.defaultPrim:
+                            target = Sdf.Path.absoluteRootPath.AppendChild(dep.defaultPrim)
+                    if not target.isEmpty:
+                        out.add(str(target.MakeAbsolutePath(path).StripAllVariantSelections()))
+            for lst in (spec.inheritPathList, spec.specializesList):
+                for target in lst.GetAddedOrExplicitItems():
+                    out.add(str(target.MakeAbsolutePath(path).StripAllVariantSelections()))
+            stack.extend((child, key) for child in spec.nameChildren)
+            for vset in spec.variantSets.values():
+                stack.extend((v.primSpec, parent) for v in vset.variants.values())
+    return _count(roots, kids, arcs, cap)
+
+
+def _count(
+    roots: set[str], kids: dict[str, set[str]], arcs: dict[str, set[str]], cap: int
+) -> tuple[int, int]:
+    """(prims, depth): the sum over `roots` of size(p) = 1 + the sizes of its children and of
+    its arcs' targets (saturating at `cap + 1`), and the deepest nesting, depth(p) = the
+    larger of 1 + its children's and its targets' depths; without recursion."""
+    size: dict[str, int] = {}
+    depth: dict[str, int] = {}
+    open_: set[str] = set()
+    total = deepest = 0
+    for root in sorted(roots):
+        todo = [(root, False)]
+        while todo:
+            p, done = todo.pop()
+            if done:
+                ks, ts = kids.get(p, ()), arcs.get(p, ())
+                n = 1 + sum(size.get(q, 0) for q in (*ks, *ts))
+                size[p] = min(n, cap + 1)
+                depth[p] = max(
+                    1 + max((depth.get(q, 0) for q in ks), default=0),
+                    max((depth.get(q, 0) for q in ts), default=0),
+                )
+                open_.discard(p)
+                continue
+            if p in size or p in open_:
+                continue  # counted, or on the path to here: a cycle counts nothing
+            open_.add(p)
+            todo.append((p, True))
+            todo.extend((q, False) for q in (*kids.get(p, ()), *arcs.get(p, ())) if q not in size)
+        total = min(total + size.get(root, 0), cap + 1)
+        deepest = max(deepest, depth.get(root, 0))
+    return total, deepest
