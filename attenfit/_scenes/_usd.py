@@ -318,7 +318,7 @@ def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
             angle = None  # no cone
         elif not 0 < angle <= 90:
             raise BadValueError(
-                f"{where}: shaping:cone:angle {angle:g} deg: attenfit "
+                f"{where}: inputs:shaping:cone:angle {angle:g} deg: attenfit "
                 "models cones of 0 to 90 degrees (or 180, no cone)"
             )
     if angle is not None:

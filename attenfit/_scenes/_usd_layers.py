@@ -182,7 +182,7 @@ def _resolve(layer, asset: str, folder: str, label: str, what: str) -> tuple[str
 
     if not asset or ":SDF_FORMAT_ARGS:" in asset or asset.endswith("]") or "[" in asset:
         raise DataFileError(
-            f"{label}: {what} {asset!r}: attenfit reads plain layer files (no file format "
+            f"{label}: {what}: attenfit reads plain layer files (no file format "
             "arguments, no package members)"
         )
     base = os.path.dirname(layer.realPath)
@@ -190,23 +190,23 @@ def _resolve(layer, asset: str, folder: str, label: str, what: str) -> tuple[str
     real = os.path.realpath(path)
     if not _inside(real, folder):
         raise DataFileError(
-            f"{label}: {what} {asset!r} resolves to {real}, outside the scene's folder "
+            f"{label}: {what} resolves to {real}, outside the scene's folder "
             f"{folder}; a USD scene may read only files inside its own folder"
         )
     if Path(path).suffix.lower() not in USD_SUFFIXES:
         raise DataFileError(
-            f"{label}: {what} {asset!r}: not a USD layer (.usd, .usda, .usdc); attenfit reads "
+            f"{label}: {what}: not a USD layer (.usd, .usda, .usdc); attenfit reads "
             "no other file formats and no .usdz packages"
         )
     if not os.path.lexists(path):
-        raise DataFileError(f"{label}: {what} {asset!r} does not exist (looked for {path})")
+        raise DataFileError(f"{label}: {what} does not exist (looked for {path})")
     try:
         resolved = str(Ar.GetResolver().Resolve(Sdf.ComputeAssetPathRelativeToLayer(layer, asset)))
     except Exception:  # a resolver error: refused below as a different file
         resolved = ""
     if not resolved or os.path.realpath(resolved) != real:
         raise DataFileError(
-            f"{label}: {what} {asset!r}: usd-core resolves it to {resolved or 'nothing'!r}, "
+            f"{label}: {what}: usd-core resolves it to {resolved or 'nothing'!r}, "
             f"not to {path}; attenfit reads only layers named by their path"
         )
     return path, real
@@ -242,7 +242,7 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
         ]
         for kind, asset in deps + _clip_paths(layer, label, where):
             what = f"{kind} {asset!r} in {where}"
-            dep_path, dep_real = _resolve(layer, asset, folder, label, f"{kind} in {where}")
+            dep_path, dep_real = _resolve(layer, asset, folder, label, what)
             edges[(layer.realPath, asset)] = dep_real
             if kind == "sublayer" and os.path.realpath(layer.realPath) in root_stack:
                 root_stack.add(dep_real)
