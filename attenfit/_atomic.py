@@ -286,19 +286,23 @@ def _signals_deferred() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
+def atomic_dir(
+    path: str | os.PathLike, *, force: bool = False, inputs: Iterable[str | os.PathLike] = ()
+) -> Iterator[Path]:
     """Build a folder under a temporary name; move it to `path` only when the block succeeds.
 
     An existing non-empty `path` is refused unless `force`; with `force` it is replaced only
     after the new folder is complete, so an interrupted run leaves the previous one intact.
+    A `path` that holds an input (a file the command read, or one of `inputs`) is refused.
     """
-    path = check_output_path(path, force=force, folder=True)  # also: not an input
+    inputs = tuple(inputs)
+    path = check_output_path(path, force=force, folder=True, inputs=inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
     os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
     try:
         yield tmp
-        check_output_path(path, force=force, folder=True)  # again: inputs read, rivals done
+        check_output_path(path, force=force, folder=True, inputs=inputs)  # inputs read since
         old = None
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")

@@ -28,9 +28,9 @@ from attenfit.cli import main
 pxr = pytest.importorskip("pxr")
 from pxr import Usd, UsdGeom, Vt  # noqa: E402
 
-from attenfit._scenes import _usd_layers  # noqa: E402
+from attenfit._scenes import _usd_crate, _usd_layers  # noqa: E402
 from attenfit._scenes._files import load_mesh_scene  # noqa: E402
-from attenfit._scenes._writeback import write_back  # noqa: E402
+from attenfit.scene import answer_file  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 SCALE = int(os.environ.get("ATTENFIT_FUZZ_SCALE", "1"))
@@ -260,7 +260,56 @@ def test_a_small_crate_file_whose_mesh_inflates_is_refused_before_triangulating(
     monkeypatch.setenv("ATTENFIT_MEMORY_BUDGET", "1G")
     _refused(capsys, tmp_path, path, *FAST,
              fragment=["bomb.usdc: 1 meshes of 3,000,000 triangles (the largest /bomb, "
-                       "3,000,000) needs about 3.07 GB of memory, over the budget of 1 GB"])  # fmt: skip
+                       "3,000,000) needs about 3.12 GB of memory, over the budget of 1 GB"])  # fmt: skip
+    # the arrays alone (48 MB decompressed), from the crate's headers, before usd-core opens it
+    monkeypatch.setenv("ATTENFIT_MEMORY_BUDGET", "20M")
+    root = _write(tmp_path / "root.usda", usda("    subLayers = [@bomb.usdc@]"))
+    _refused(capsys, tmp_path, root, *FAST,
+             fragment="root.usda: its 2 layers (up to sublayer 'bomb.usdc' in layer 'root.usda') "
+                      "needs about 48")  # fmt: skip
+
+
+def _crate_fields(data: bytes) -> tuple[int, list[int]]:
+    """The FIELDS section's start and its value representations, of a crate file's bytes."""
+    toc = int.from_bytes(data[16:24], "little")
+    for k in range(int.from_bytes(data[toc : toc + 8], "little")):
+        entry = toc + 8 + 32 * k
+        if data[entry : entry + 16].rstrip(b"\0") == b"FIELDS":
+            start = int.from_bytes(data[entry + 16 : entry + 24], "little")
+    n = int.from_bytes(data[start : start + 8], "little")
+    p = start + 16 + int.from_bytes(data[start + 8 : start + 16], "little")
+    size = int.from_bytes(data[p : p + 8], "little")
+    raw = _usd_crate._fast_decompress(bytes(data[p + 8 : p + 8 + size]), 8 * n)
+    return start, [int.from_bytes(raw[i : i + 8], "little") for i in range(0, len(raw), 8)]
+
+
+@pytest.mark.parametrize("damage", ["toc", "fields", "reps", "array"])
+def test_a_crate_file_with_damaged_headers_is_refused_before_usd_core_opens_it(
+    tmp_path, capsys, damage
+):
+    path = tmp_path / "scene.usdc"
+    stage = Usd.Stage.CreateNew(str(path))
+    mesh = UsdGeom.Mesh.Define(stage, "/m")
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(np.arange(1000, dtype=np.int32)))
+    stage.GetRootLayer().Save()
+    del stage, mesh
+    data = bytearray(path.read_bytes())
+    start, reps = _crate_fields(data)
+    assert sum(r >> 63 for r in reps) == 1  # one array: the indices
+    fragment = "scene.usdc: a USD crate file whose headers do not parse"
+    if damage == "toc":
+        data[16:24] = (len(data) + 100).to_bytes(8, "little")
+    elif damage == "fields":
+        data[start : start + 8] = (10**9).to_bytes(8, "little")
+    elif damage == "reps":  # the value representations' LZ4 block, garbled
+        p = start + 16 + int.from_bytes(data[start + 8 : start + 16], "little") + 8
+        data[p + 1 : p + 9] = b"\xff" * 8
+    else:  # the array declares 2^40 elements: 4 TB once decompressed
+        offset = next(r for r in reps if r >> 63) & ((1 << 48) - 1)
+        data[offset : offset + 8] = (1 << 40).to_bytes(8, "little")
+        fragment = "scene.usdc: its root layer needs about 4.4 TB of memory, over the budget"
+    path.write_bytes(bytes(data))
+    _refused(capsys, tmp_path, path, *FAST, fragment=fragment)
 
 
 def _explosion(levels: int, instanced: bool) -> str:
@@ -281,7 +330,7 @@ def _explosion(levels: int, instanced: bool) -> str:
 def test_references_that_compose_a_million_prims_are_refused_before_composing(
     tmp_path, capsys, instanced
 ):
-    """Without instancing, usd-core took 7 minutes to open this 60-line file."""
+    """Without instancing, usd-core took 7 minutes to open such a file (4^10 prims)."""
     root = _write(tmp_path / "root.usda", _explosion(10, instanced))
     _refused(capsys, tmp_path, root, *FAST, fragment=(
         "root.usda: its references, payloads, inherits and instances compose more than "
@@ -376,17 +425,21 @@ def test_force_replaces_only_what_attenfit_wrote(tmp_path, capsys):
     assert (tmp_path / "mine.usda").read_text() == usda(body=FLOOR)
 
 
-def test_the_api_write_back_refuses_a_layer_of_the_scene(tmp_path):
+def test_the_api_refuses_outputs_onto_a_layer_of_the_scene(tmp_path):
+    """Outside the command line (no command tracking its inputs), the answer knows the files
+    its scene read: `save` and `write_back` refuse them too."""
     root = _composed(tmp_path)
-    im = load_mesh_scene(root, samples=16, notice=lambda m: None)
-    assert set(im.inputs) == {
+    ans = answer_file(root, engine="godot", samples=16, notice=lambda m: None)
+    assert set(ans.imported.inputs) == {
         str(root),
         str(tmp_path / "layers" / "floor.usda"),
         str(tmp_path / "props" / "lamp.usda"),
     }
     before = _snapshot(tmp_path)
     with pytest.raises(BadValueError, match="is an input of this command"):
-        write_back(im, [], tmp_path / "props" / "lamp.usda", force=True)
+        ans.write_back(tmp_path / "props" / "lamp.usda", force=True)
+    with pytest.raises(BadValueError, match="holds an input of this command"):
+        ans.save(tmp_path / "layers", force=True)
     assert _snapshot(tmp_path) == before
 
 

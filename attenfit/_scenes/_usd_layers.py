@@ -15,7 +15,8 @@ file is accepted only when it
   same file (no search paths);
 * is at most `LIMITS["mesh_scene"]` bytes, and the layers together fit the memory budget
   (`attenfit._budget`; a text layer needs about 32 bytes of memory per byte of file while
-  usd-core parses it, measured, a binary layer is read lazily).
+  usd-core parses it, measured; a binary layer what its headers declare: its structure and
+  every array value, which compress 1,000 to 1 on disk, `_usd_crate`).
 
 The opened layers are kept in the result: `Usd.Stage.Open` finds them in usd-core's layer
 registry instead of reading the files again, so it only ever composes checked layers.
@@ -37,6 +38,7 @@ import numpy as np
 from .. import _budget
 from .._errors import DataFileError
 from .._input import LIMITS, check_file
+from ._usd_crate import crate_memory
 
 __all__ = [
     "MAX_PRIMS",
@@ -57,11 +59,10 @@ MAX_PRIMS = 200_000
 #: usd-core's parser and composition recurse, and crash (a segmentation fault, not an
 #: error) on a text layer of 100,000 nested prims or dictionaries; 30,000 passed.
 MAX_NESTING = 1000
-#: Memory usd-core needs per byte of a layer while it holds it: a text layer's parser peaked
-#: at 30.6 bytes per byte (an 8 MB `.usda` of arrays), rounded up; a binary (crate) layer
-#: is mapped and its values read when asked for (its meshes are estimated in `_usd`).
+#: Memory usd-core needs per byte of a text layer while it parses it: 30.6 bytes per byte
+#: at the peak (an 8 MB `.usda` of arrays), rounded up. A binary (crate) layer compresses,
+#: so its size says nothing: its headers are read instead (`_usd_crate.crate_memory`).
 BYTES_PER_TEXT_BYTE = 32
-BYTES_PER_CRATE_BYTE = 1
 _CRATE_MAGIC = b"PXR-USDC"
 
 
@@ -165,7 +166,7 @@ def _check_layer(real: str, size: int, label: str, what: str) -> int:
     with open(real, "rb") as fh:
         head = fh.read(len(_CRATE_MAGIC))
         if head == _CRATE_MAGIC:
-            return size * BYTES_PER_CRATE_BYTE
+            return crate_memory(real, size, f"{label}: {what}".rstrip(": "))
         depth = _nesting(head + fh.read(size))
     if depth > MAX_NESTING:
         raise DataFileError(
