@@ -484,6 +484,20 @@ def test_extreme_light_values_exit_2_naming_the_prim_and_attribute(tmp_path, cap
     _refused(capsys, tmp_path, root, *FAST, fragment=f"root.usda: {fragment}")
 
 
+@pytest.mark.parametrize(
+    ("old", "new", "fragment"),
+    [  # found by the fuzz campaign: usd-core raised, or handed back a value of no type
+        ("    double3 xformOp:translate = (0, 0, 2)", "    float xformOp:translate = 2",
+         "SphereLight /bulb: usd-core cannot read it (Invalid combination of opType"),
+        ("point3f[] points", "point90f[] points",
+         "Mesh /floor: points must be an array, got"),
+    ],
+)  # fmt: skip
+def test_values_usd_core_cannot_read_exit_2_naming_the_prim(tmp_path, capsys, old, new, fragment):
+    root = _write(tmp_path / "root.usda", usda().replace(old, new))
+    _refused(capsys, tmp_path, root, *FAST, fragment=f"root.usda: {fragment}")
+
+
 def test_a_radius_given_of_1e300_exits_2(tmp_path, capsys):
     body = FLOOR + BULB.replace("float inputs:radius = 0.05", "bool treatAsPoint = 1")
     root = _write(tmp_path / "root.usda", usda(body=body))

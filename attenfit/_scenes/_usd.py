@@ -37,10 +37,11 @@ scales non-uniformly (its radius would not be a radius) is refused.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -135,12 +136,13 @@ def read_usd(
         type_name = prim.GetTypeName()
         if type_name not in (*_UNSUPPORTED, "SphereLight", "DiskLight", "Mesh"):
             continue
-        img = UsdGeom.Imageable(prim)
-        if img and (
-            img.ComputeVisibility() == UsdGeom.Tokens.invisible
-            or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
-        ):
-            continue
+        with _prim_errors(f"{label}: {type_name} {prim.GetPath()}"):
+            img = UsdGeom.Imageable(prim)
+            if img and (
+                img.ComputeVisibility() == UsdGeom.Tokens.invisible
+                or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+            ):
+                continue
         found.append((prim, type_name))
     _check_mesh_memory([p for p, t in found if t == "Mesh"], layers, label, UsdGeom)
     lights: list[UsdLight] = []
@@ -153,15 +155,37 @@ def read_usd(
                 raise BadValueError(msg + "; --strict refuses it")
             notice(msg + "; skipped")
             continue
-        if type_name in ("SphereLight", "DiskLight"):
-            m = _matrix(cache.GetLocalToWorldTransform(prim))
-            lights.append(_light(prim, type_name, m, mpu, label, radius_for, UsdLux))
-        else:
-            with np.errstate(over="ignore", invalid="ignore"):
-                mesh = _mesh(prim, cache, mpu, label, UsdGeom)
-            if mesh is not None:
-                meshes.append(mesh)
+        with _prim_errors(f"{label}: {type_name} {name}"):
+            if type_name in ("SphereLight", "DiskLight"):
+                m = _matrix(cache.GetLocalToWorldTransform(prim))
+                lights.append(_light(prim, type_name, m, mpu, label, radius_for, UsdLux))
+            else:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    meshes.append(_mesh(prim, cache, mpu, label, UsdGeom))
     return lights, meshes
+
+
+@contextlib.contextmanager
+def _prim_errors(where: str) -> Iterator[None]:
+    """usd-core's errors while a prim is read (an xformOp whose value has the wrong type, an
+    attribute of an unknown type...) as one line naming the prim: the file's content."""
+    from pxr import Tf
+
+    try:
+        yield
+    except Tf.ErrorException as exc:
+        raise DataFileError(f"{where}: usd-core cannot read it ({pxr_error(exc)})") from None
+
+
+def _length(attr, where: str) -> int:
+    """The element count of an array attribute's value (0 when it has none)."""
+    v = attr.Get()
+    if v is None:
+        return 0
+    try:
+        return len(v)
+    except TypeError:
+        raise BadTypeError(f"{where}: {attr.GetName()} must be an array, got {_show(v)}") from None
 
 
 def _open_stage(layers: UsdLayers, label: str, Usd):
@@ -201,9 +225,11 @@ def _check_mesh_memory(prims, layers: UsdLayers, label: str, UsdGeom) -> None:
     need, tris, biggest, big_tris = 0, 0, "", -1
     for prim in prims:
         mesh = UsdGeom.Mesh(prim)
-        n_pts = len(mesh.GetPointsAttr().Get() or [])
-        n_idx = len(mesh.GetFaceVertexIndicesAttr().Get() or [])
-        n_faces = len(mesh.GetFaceVertexCountsAttr().Get() or [])
+        where = f"{label}: Mesh {prim.GetPath()}"
+        with _prim_errors(where):
+            n_pts = _length(mesh.GetPointsAttr(), where)
+            n_idx = _length(mesh.GetFaceVertexIndicesAttr(), where)
+            n_faces = _length(mesh.GetFaceVertexCountsAttr(), where)
         t = max(n_idx - 2 * n_faces, 0)  # fan triangles: sum(count - 2) over the faces
         tris += t
         need += BYTES_PER_TRIANGLE * t + BYTES_PER_POINT * n_pts
@@ -362,7 +388,7 @@ def _array(attr, dtype, width: int, where: str) -> np.ndarray:
         ) from None
 
 
-def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh | None:
+def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh:
     name = str(prim.GetPath())
     where = f"{label}: Mesh {name}"
     mesh = UsdGeom.Mesh(prim)
