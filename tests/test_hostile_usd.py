@@ -315,7 +315,7 @@ def test_a_crate_file_with_damaged_headers_is_refused_before_usd_core_opens_it(
 def _explosion(levels: int, instanced: bool) -> str:
     """`/L(k)` holds four prims referencing `/L(k-1)`: 4^levels prims from a few lines."""
     inst = "        instanceable = true\n" if instanced else ""
-    out = ['class "L0"\n{\n    def Mesh "m"\n    {\n    }\n}\n']
+    out = ['class "L0"\n{\n    def Xform "m"\n    {\n    }\n}\n']
     for k in range(1, levels + 1):
         kids = "".join(
             f'    def Xform "c{j}" (\n{inst}        references = </L{k - 1}>\n    )\n    {{\n    }}\n'
@@ -335,6 +335,23 @@ def test_references_that_compose_a_million_prims_are_refused_before_composing(
     _refused(capsys, tmp_path, root, *FAST, fragment=(
         "root.usda: its references, payloads, inherits and instances compose more than "
         "200,000 prims"))  # fmt: skip
+
+
+@pytest.mark.parametrize("arc", ["sublayer", "reference"])
+def test_a_composition_bomb_in_another_layer_is_refused(tmp_path, capsys, arc):
+    bomb = _explosion(9, False).replace(FLOOR + BULB, "")
+    _write(tmp_path / "bomb.usda", bomb.replace('def Xform "top"', 'def Xform "unused"'))
+    if arc == "sublayer":
+        root = _write(tmp_path / "root.usda", usda("    subLayers = [@bomb.usda@]"))
+    else:
+        ref = 'def "x" (\n    references = @bomb.usda@</L9>\n)\n{\n}\n'
+        root = _write(tmp_path / "root.usda", usda(body=FLOOR + BULB + ref))
+    _refused(capsys, tmp_path, root, *FAST, fragment="compose more than 200,000 prims")
+    # a smaller one (4^7 = 16,384 prims under /x) composes
+    _write(tmp_path / "bomb.usda", _explosion(7, False).replace(FLOOR + BULB, ""))
+    if arc == "reference":
+        _write(root, usda(body=FLOOR + BULB + ref.replace("</L9>", "</L7>")))
+    assert main(["scene", str(root), *FAST]) == 0, capsys.readouterr().err
 
 
 def test_deep_nesting_is_refused_before_the_parser_sees_it(tmp_path, capsys):

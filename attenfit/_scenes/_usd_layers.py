@@ -231,7 +231,7 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
     queue = [root]
     by_real = {real: root}
     edges: dict[tuple[str, str], str] = {}  # (layer, asset path) -> the real path it names
-    root_stack = {real}  # the root layer and its sublayers, recursively
+    sublayers: dict[str, set[str]] = {}  # real path -> its sublayers' real paths
     while queue:
         layer = queue.pop(0)
         where = f"layer {_rel(layer.realPath, folder)!r}"
@@ -245,8 +245,8 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
             what = f"{kind} {asset!r} in {where}"
             dep_path, dep_real = _resolve(layer, asset, folder, label, what)
             edges[(layer.realPath, asset)] = dep_real
-            if kind == "sublayer" and os.path.realpath(layer.realPath) in root_stack:
-                root_stack.add(dep_real)
+            if kind == "sublayer":
+                sublayers.setdefault(os.path.realpath(layer.realPath), set()).add(dep_real)
             if dep_real in seen:
                 continue
             seen.add(dep_real)
@@ -267,6 +267,12 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
             layers.append(dep)
             by_real[dep_real] = dep
             queue.append(dep)
+    root_stack, todo = {real}, [real]  # the root layer and its sublayers, recursively
+    while todo:
+        for sub in sublayers.get(todo.pop(), ()):
+            if sub not in root_stack:
+                root_stack.add(sub)
+                todo.append(sub)
     bound, depth = composed_prims_bound(layers, by_real, edges, root_stack, MAX_PRIMS)
     if bound > MAX_PRIMS:
         raise DataFileError(
