@@ -167,9 +167,13 @@ def check_own_output(
         )
 
 
+#: How much of an existing output `check_own_output` reads looking for attenfit's mark.
+_MARK_SCAN = 1 << 30
+
+
 def _holds_mark(path: Path, marks: list[bytes]) -> bool:
-    """Whether the regular file `path` contains one of `marks` (read without blocking, in
-    chunks; a FIFO, device or folder holds none)."""
+    """Whether the regular file `path` contains one of `marks` in its first `_MARK_SCAN`
+    bytes (read without blocking, in chunks; a FIFO, device or folder holds none)."""
     import stat
 
     try:
@@ -179,8 +183,9 @@ def _holds_mark(path: Path, marks: list[bytes]) -> bool:
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):
             return False
-        keep, tail = max((len(m) for m in marks), default=1), b""
-        while chunk := os.read(fd, 1 << 20):
+        keep, tail, left = max((len(m) for m in marks), default=1), b"", _MARK_SCAN
+        while left > 0 and (chunk := os.read(fd, min(1 << 20, left))):
+            left -= len(chunk)
             data = tail + chunk
             if any(m in data for m in marks):
                 return True
