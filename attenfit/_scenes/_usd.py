@@ -445,9 +445,23 @@ def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh:
 
 
 def _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom, where) -> np.ndarray | None:
-    """Authored shading normals per triangle corner (local space), or None."""
+    """Authored shading normals per triangle corner (local space), or None.
+
+    Their count is checked against the mesh's before they are read or flattened: an indexed
+    primvar's indices (compressed 1,000 to 1 in a crate file) could stand for billions."""
     pv = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar("normals")
+    expect = {
+        "vertex": len(pts),
+        "varying": len(pts),
+        "faceVarying": len(idx),
+        "uniform": len(counts),
+        "constant": 1,
+    }
     if pv and pv.HasAuthoredValue():
+        interp = pv.GetInterpolation()
+        n = _length(pv.GetIndicesAttr() if pv.IsIndexed() else pv.GetAttr(), where)
+        if n != expect.get(interp):
+            return None  # a count that does not match: geometric normals
         flat = pv.ComputeFlattened()
         try:
             values = np.asarray(flat if flat is not None else [], np.float64).reshape(-1, 3)
@@ -455,18 +469,17 @@ def _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom, where) ->
             raise BadTypeError(
                 f"{where}: primvars:normals must be an array of 3-vectors, got {_show(flat)}"
             ) from None
-        interp = pv.GetInterpolation()
     else:
-        values = _array(mesh.GetNormalsAttr(), np.float64, 3, where)
         interp = mesh.GetNormalsInterpolation()
-    if len(values) == 0:
+        if _length(mesh.GetNormalsAttr(), where) != expect.get(interp):
+            return None
+        values = _array(mesh.GetNormalsAttr(), np.float64, 3, where)
+    if len(values) != expect.get(interp) or len(values) == 0:
         return None
-    if interp in ("vertex", "varying") and len(values) == len(pts):
+    if interp in ("vertex", "varying"):
         return values[idx[fv]]
-    if interp == "faceVarying" and len(values) == len(idx):
+    if interp == "faceVarying":
         return values[fv]
-    if interp == "uniform" and len(values) == len(counts):
+    if interp == "uniform":
         return np.repeat(values[face][:, None, :], 3, axis=1)
-    if interp == "constant" and len(values) == 1:
-        return np.broadcast_to(values[0], (len(fv), 3, 3)).copy()
-    return None  # a count that does not match: geometric normals
+    return np.broadcast_to(values[0], (len(fv), 3, 3)).copy()
