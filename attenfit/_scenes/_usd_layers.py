@@ -87,35 +87,81 @@ def _rel(real: str, folder: str) -> str:
     return os.path.relpath(real, folder) if _inside(real, folder) else real
 
 
-def _clip_paths(layer, label: str, where: str) -> list[tuple[str, str]]:
-    """The asset paths of the value clips authored in `layer`: (kind, path) pairs."""
+@dataclasses.dataclass
+class _Specs:
+    """What the layers' prim specs say about the composed namespace, pooled by path (a
+    variant's specs as its prim's): each prim's children, its arcs' targets (references
+    and payloads into another layer with no prim path: that layer's default prim, resolved
+    once the layers are known), and each layer's root prims."""
+
+    kids: dict[str, set[str]] = dataclasses.field(default_factory=dict)
+    arcs: dict[str, set[str]] = dataclasses.field(default_factory=dict)
+    default_arcs: list[tuple[str, str, str]] = dataclasses.field(default_factory=list)
+    roots: dict[str, set[str]] = dataclasses.field(default_factory=dict)
+
+
+def _scan(layer, specs: _Specs, label: str, where: str) -> list[tuple[str, str]]:
+    """One pass over the prim specs of `layer` (variants' too): their children and arcs
+    into `specs`, and the asset paths of the value clips they author, (kind, path) pairs."""
     from pxr import Sdf
 
-    found: list[tuple[str, str]] = []
-    stack = list(layer.pseudoRoot.nameChildren)
+    lreal = os.path.realpath(layer.realPath)
+    clips_found: list[tuple[str, str]] = []
+    roots = specs.roots.setdefault(lreal, set())
+    stack = [(spec, True) for spec in layer.pseudoRoot.nameChildren]
     while stack:
-        spec = stack.pop()
-        stack.extend(spec.nameChildren)
-        for vset in spec.variantSets.values():
-            stack.extend(v.primSpec for v in vset.variants.values())
-        if not spec.HasInfo("clips"):
-            continue
-        clips = spec.GetInfo("clips")
-        for name, clip in clips.items() if isinstance(clips, dict) else []:
-            if not isinstance(clip, dict):
+        spec, top = stack.pop()
+        spec_path = spec.path
+        path = spec_path.StripAllVariantSelections()
+        key = str(path)
+        if spec_path.IsPrimVariantSelectionPath():
+            pass  # a variant: its children and arcs are its prim's
+        elif top:
+            roots.add(key)
+        else:
+            specs.kids.setdefault(str(path.GetParentPath()), set()).add(key)
+        keys = spec.ListInfoKeys()
+        out = specs.arcs.setdefault(key, set())
+        for field, items in (("references", "referenceList"), ("payload", "payloadList")):
+            if field not in keys:
                 continue
-            if "templateAssetPath" in clip:
-                raise DataFileError(
-                    f"{label}: {where}: prim {spec.path}: value clips {name!r} are given by a "
-                    f"template ({clip['templateAssetPath']!r}); attenfit reads only clips "
-                    "listed in assetPaths"
-                )
-            for a in clip.get("assetPaths", []) or []:
-                if isinstance(a, Sdf.AssetPath):
-                    found.append((f"value clip of {spec.path}", a.path))
-            m = clip.get("manifestAssetPath")
-            if isinstance(m, Sdf.AssetPath) and m.path:
-                found.append((f"clip manifest of {spec.path}", m.path))
+            for item in getattr(spec, items).GetAddedOrExplicitItems():
+                target = item.primPath
+                if not target.isEmpty:
+                    out.add(str(target.MakeAbsolutePath(path).StripAllVariantSelections()))
+                elif item.assetPath:
+                    specs.default_arcs.append((key, layer.realPath, item.assetPath))
+        for field, items in (("inheritPaths", "inheritPathList"), ("specializes", "specializesList")):  # fmt: skip
+            if field in keys:
+                for target in getattr(spec, items).GetAddedOrExplicitItems():
+                    out.add(str(target.MakeAbsolutePath(path).StripAllVariantSelections()))
+        if "clips" in keys:
+            clips_found += _clips(spec, label, where, Sdf)
+        stack.extend((child, False) for child in spec.nameChildren)
+        for vset in spec.variantSets.values():
+            stack.extend((v.primSpec, top) for v in vset.variants.values())
+    return clips_found
+
+
+def _clips(spec, label: str, where: str, Sdf) -> list[tuple[str, str]]:
+    """The asset paths of the value clips `spec` authors: (kind, path) pairs."""
+    found: list[tuple[str, str]] = []
+    clips = spec.GetInfo("clips")
+    for name, clip in clips.items() if isinstance(clips, dict) else []:
+        if not isinstance(clip, dict):
+            continue
+        if "templateAssetPath" in clip:
+            raise DataFileError(
+                f"{label}: {where}: prim {spec.path}: value clips {name!r} are given by a "
+                f"template ({clip['templateAssetPath']!r}); attenfit reads only clips "
+                "listed in assetPaths"
+            )
+        for a in clip.get("assetPaths", []) or []:
+            if isinstance(a, Sdf.AssetPath):
+                found.append((f"value clip of {spec.path}", a.path))
+        m = clip.get("manifestAssetPath")
+        if isinstance(m, Sdf.AssetPath) and m.path:
+            found.append((f"clip manifest of {spec.path}", m.path))
     return found
 
 
@@ -232,6 +278,7 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
     by_real = {real: root}
     edges: dict[tuple[str, str], str] = {}  # (layer, asset path) -> the real path it names
     sublayers: dict[str, set[str]] = {}  # real path -> its sublayers' real paths
+    specs = _Specs()
     while queue:
         layer = queue.pop(0)
         where = f"layer {_rel(layer.realPath, folder)!r}"
@@ -241,7 +288,7 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
             for a in layer.GetCompositionAssetDependencies()
             if a  # '' is a reference inside the layer itself
         ]
-        for kind, asset in deps + _clip_paths(layer, label, where):
+        for kind, asset in deps + _scan(layer, specs, label, where):
             what = f"{kind} {asset!r} in {where}"
             dep_path, dep_real = _resolve(layer, asset, folder, label, what)
             edges[(layer.realPath, asset)] = dep_real
@@ -273,7 +320,7 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
             if sub not in root_stack:
                 root_stack.add(sub)
                 todo.append(sub)
-    bound, depth = composed_prims_bound(layers, by_real, edges, root_stack, MAX_PRIMS)
+    bound, depth = composed_prims_bound(specs, by_real, edges, root_stack, MAX_PRIMS)
     if bound > MAX_PRIMS:
         raise DataFileError(
             f"{label}: its references, payloads, inherits and instances compose more than "
@@ -287,10 +334,10 @@ def usd_layers(path: str | os.PathLike, label: str) -> UsdLayers:
     return UsdLayers(root, folder, tuple(files), tuple(layers), total)
 
 
-def composed_prims_bound(layers, by_real, edges, root_stack, cap: int) -> tuple[int, int]:
+def composed_prims_bound(specs: _Specs, by_real, edges, root_stack, cap: int) -> tuple[int, int]:
     """Upper bounds on the prims usd-core composes for the stage (instance proxies
     counted; saturating just above `cap`) and on their nesting depth, from the layers' prim
-    specs alone.
+    specs alone (`_scan`).
 
     Every layer's specs are pooled by path (variants' specs as their prim's): a prim at path
     P counts 1, plus its children, plus what each of its arcs brings (references and
@@ -299,40 +346,13 @@ def composed_prims_bound(layers, by_real, edges, root_stack, cap: int) -> tuple[
     overestimates. A handful of prims referencing each other can stand for billions
     (`/L1` holding four references to `/L0`, `/L2` four to `/L1`, ...): usd-core takes
     minutes composing them, and this bound refuses them first. An arc that closes a cycle
-    counts nothing (usd-core drops it too)."""
-    from pxr import Sdf
-
-    kids: dict[str, set[str]] = {}
-    arcs: dict[str, set[str]] = {}
-    roots: set[str] = set()
-    for layer in layers:
-        lreal = os.path.realpath(layer.realPath)
-        stack = [(spec, None) for spec in layer.pseudoRoot.nameChildren]
-        while stack:
-            spec, parent = stack.pop()
-            path = spec.path.StripAllVariantSelections()
-            key = str(path)
-            if parent is None and spec.path.IsRootPrimPath() and lreal in root_stack:
-                roots.add(key)
-            if key != "/" and not str(spec.path).endswith("}"):  # a variant is its prim's
-                kids.setdefault(str(path.GetParentPath()), set()).add(key)
-            out = arcs.setdefault(key, set())
-            for lst in (spec.referenceList, spec.payloadList):
-                for item in lst.GetAddedOrExplicitItems():
-                    target = item.primPath
-                    if item.assetPath:
-                        dep = by_real.get(edges.get((layer.realPath, item.assetPath), ""))
-                        if target.isEmpty and dep is not None and dep.defaultPrim:
-                            target = Sdf.Path.absoluteRootPath.AppendChild(dep.defaultPrim)
-                    if not target.isEmpty:
-                        out.add(str(target.MakeAbsolutePath(path).StripAllVariantSelections()))
-            for lst in (spec.inheritPathList, spec.specializesList):
-                for target in lst.GetAddedOrExplicitItems():
-                    out.add(str(target.MakeAbsolutePath(path).StripAllVariantSelections()))
-            stack.extend((child, key) for child in spec.nameChildren)
-            for vset in spec.variantSets.values():
-                stack.extend((v.primSpec, parent) for v in vset.variants.values())
-    return _count(roots, kids, arcs, cap)
+    counts nothing (usd-core drops it too). The roots are those of the root layer stack."""
+    for key, layer_path, asset in specs.default_arcs:
+        dep = by_real.get(edges.get((layer_path, asset), ""))
+        if dep is not None and dep.defaultPrim:
+            specs.arcs.setdefault(key, set()).add("/" + str(dep.defaultPrim).lstrip("/"))
+    roots = set().union(*(specs.roots.get(r, set()) for r in root_stack))
+    return _count(roots, specs.kids, specs.arcs, cap)
 
 
 def _count(
