@@ -365,6 +365,19 @@ def test_deep_nesting_is_refused_before_the_parser_sees_it(tmp_path, capsys):
     _refused(capsys, tmp_path, root, *FAST, fragment="nests brackets 1,50")
 
 
+def test_prims_nested_deep_through_references_are_refused(tmp_path, capsys):
+    """Each layer is flat, but `/P(k)` holds a prim referencing `/P(k-1)`: 1,500 levels."""
+    chain = "".join(
+        f'def "P{k}"\n{{\n    def "c" (\n        references = </P{k - 1}>\n    )\n    {{\n    }}\n}}\n'
+        for k in range(1, 1501)
+    )
+    _write(tmp_path / "chain.usda", usda(body='def "P0"\n{\n}\n' + chain))
+    ref = 'def "x" (\n    references = @chain.usda@</P1500>\n)\n{\n}\n'
+    root = _write(tmp_path / "root.usda", usda(body=FLOOR + BULB + ref))
+    _refused(capsys, tmp_path, root, *FAST,
+             fragment="root.usda: its prims (references followed) nest up to 1,501 deep")  # fmt: skip
+
+
 def test_more_layers_than_allowed_are_refused(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(_usd_layers, "MAX_LAYERS", 3)
     for k in range(4):
