@@ -213,6 +213,41 @@ def test_a_fifo_layer_is_refused_without_hanging(tmp_path, arc):
     assert _snapshot(tmp_path) == before
 
 
+def test_usd_core_warnings_are_notes_and_a_refusal_stays_one_line(tmp_path, capsys):
+    """usd-core prints its warnings on standard error itself ("Warning: in _ReportErrors at
+    line 3326 of stage.cpp -- ..."); attenfit traps them and gives each as one note."""
+    proc_root = _write(tmp_path / "root.usda", usda(body=FLOOR + BULB + 'def "x" (\n    '
+                                                   "references = </Nope>\n)\n{\n}\n"))  # fmt: skip
+    proc = _subprocess(tmp_path, proc_root, *FAST)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == (
+        f"note: root.usda: usd-core: In </x>: Unresolved reference prim path @{proc_root}@</Nope> "
+        f"introduced by @{proc_root}@</x>\n"
+    )
+    notes: list[str] = []
+    with pytest.raises(BadValueError, match=r"no mesh to sample receivers on$"):
+        load_mesh_scene(_write(proc_root, usda(body=BULB + 'def "x" (\n    references = '
+                                               "</Nope>\n)\n{\n}\n")), notice=notes.append)  # fmt: skip
+    assert notes == [f"root.usda: usd-core: In </x>: Unresolved reference prim path "
+                     f"@{proc_root}@</Nope> introduced by @{proc_root}@</x>"]  # fmt: skip
+
+
+def test_a_refusal_says_what_usd_core_warned(tmp_path):
+    body = FLOOR + BULB.replace("0.05", "0.05\n    float inputs:exposure = 18446744073709551616")
+    with pytest.raises(BadValueError) as err:
+        load_mesh_scene(_write(tmp_path / "root.usda", usda(body=body)), notice=lambda m: None)
+    assert str(err.value).startswith(
+        "root.usda: SphereLight /bulb: inputs:intensity 1 x 2^inputs:exposure (1.84467e+19) gives"
+    )
+    assert re.search(
+        r"\(usd-core warned: Integer literal '18446744073709551616' on line \d+ in file "
+        + re.escape(str(tmp_path / "root.usda"))
+        + r" out of range, parsing as double\. Consider exponential notation for large "
+        r"floating point values\.\)$",
+        str(err.value),
+    )
+
+
 def test_a_sublayer_cycle_answers(tmp_path, capsys):
     root = _write(tmp_path / "root.usda", usda("    subLayers = [@a.usda@]"))
     _write(tmp_path / "a.usda", usda("    subLayers = [@b.usda@]", ""))
@@ -661,6 +696,8 @@ def test_fuzz_mutated_usda_exits_0_or_2(tmp_path, capsys):
         assert code in (0, 2), f"mutation {k}: exit {code}: {err}\n{text}"
         assert "internal error" not in err and "Traceback" not in err, f"{k}: {err}\n{text}"
         if code == 2:
-            assert err.strip().count("\n") == 0 or "Warning" in err, f"{k}: {err}"
+            *notes, last = err.strip().split("\n")  # one error line, after any notes
+            assert last.startswith("attenfit: error: "), f"{k}: {err}"
+            assert all(x.startswith("note: ") for x in notes), f"{k}: {err}"
         codes.append(code)
     assert codes.count(0) >= 10 and codes.count(2) >= 30, codes  # the campaign hits both

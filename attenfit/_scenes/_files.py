@@ -40,7 +40,7 @@ from ._scene import Scene
 from ._toml import SCENE_PRECISIONS
 from ._types import PointReceivers
 from ._usd import USD_SUFFIXES, read_usd
-from ._usd_layers import usd_layers
+from ._usd_layers import usd_diagnostics, usd_layers
 
 __all__ = [
     "SIDE_KEYS",
@@ -111,8 +111,9 @@ def scene_files(path: str | os.PathLike) -> SceneFiles:
     size limit), a glTF file and the buffers it names (read once, by `load_gltf`)."""
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix in USD_SUFFIXES:
-        layers = usd_layers(path, path.name)
+    if suffix in USD_SUFFIXES:  # usd-core's warnings: reported when the scene is read
+        with usd_diagnostics():
+            layers = usd_layers(path, path.name)
         return SceneFiles(layers.files, layers)
     if suffix not in GLTF_SUFFIXES:
         raise BadValueError(

@@ -50,7 +50,14 @@ from .. import _budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from ._sample import Mesh, check_mesh, transform_normals
 from ._types import SceneLight
-from ._usd_layers import MAX_PRIMS, USD_SUFFIXES, UsdLayers, pxr_error, usd_layers
+from ._usd_layers import (
+    MAX_PRIMS,
+    USD_SUFFIXES,
+    UsdLayers,
+    pxr_error,
+    usd_diagnostics,
+    usd_layers,
+)
 
 __all__ = ["USD_SUFFIXES", "UsdLight", "read_usd"]
 
@@ -119,8 +126,16 @@ def read_usd(
     Every layer the scene names is found and checked first (`_usd_layers.usd_layers`), so
     usd-core composes only files inside the scene's folder. `radius_for(name)` gives a
     radius from the options for a light that has none (`treatAsPoint`); `notice` receives
-    one line per skipped prim.
+    one line per skipped prim, and one per warning of usd-core's (kept off standard error).
     """
+    with usd_diagnostics() as warned:
+        lights, meshes = _read(path, label, radius_for, strict, notice)
+    for text in warned:
+        notice(f"{label}: usd-core: {text}")
+    return lights, meshes
+
+
+def _read(path, label, radius_for, strict, notice) -> tuple[list[UsdLight], list[Mesh]]:
     Usd, UsdGeom, UsdLux = _pxr()
     layers = usd_layers(path, label)
     stage = _open_stage(layers, label, Usd)

@@ -27,16 +27,18 @@ command (`attenfit._input.inputs()`), so no output may replace it.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import re
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .. import _budget
-from .._errors import DataFileError
+from .._errors import AttenfitError, DataFileError, OutputExistsError
 from .._input import LIMITS, check_file
 from ._usd_crate import crate_memory
 
@@ -46,6 +48,7 @@ __all__ = [
     "UsdLayers",
     "composed_prims_bound",
     "pxr_error",
+    "usd_diagnostics",
     "usd_layers",
 ]
 
@@ -171,6 +174,41 @@ def pxr_error(exc: BaseException) -> str:
     text = " ".join(x.strip() for x in str(exc).splitlines() if x.strip())
     why = text.rsplit(" : ", 1)[-1].strip().strip("'").strip()
     return why if len(why) <= 300 else why[:297] + "..."
+
+
+@contextlib.contextmanager
+def usd_diagnostics() -> Iterator[list[str]]:
+    """usd-core's warnings inside the block (a reference to a missing prim, a number out of
+    range...), kept off standard error and gathered, one line each, for the caller to report
+    as notices; a refusal raised inside gets the first appended, so that it stays one line
+    and still says what usd-core saw. (Errors still raise `Tf.ErrorException`.)"""
+    from pxr import Tf
+
+    warned: list[str] = []
+    with Tf.DiagnosticTrap() as trap:
+        try:
+            yield warned
+        except AttenfitError as exc:
+            _gather(trap, warned)
+            if not warned or isinstance(exc, OutputExistsError):
+                raise
+            more = f" and {len(warned) - 1} more" if len(warned) > 1 else ""
+            raise type(exc)(f"{exc} (usd-core warned: {warned[0]}{more})") from None
+        finally:
+            _gather(trap, warned)
+            trap.Clear()
+
+
+#: The end of usd-core's composition warnings: the stage and its address in memory.
+_STAGE_NOTE = re.compile(r"\s*\(instantiating stage on stage @[^@]*@ <0x[0-9a-f]+>\)$")
+
+
+def _gather(trap, warned: list[str]) -> None:
+    for w in trap.GetWarnings():
+        text = _STAGE_NOTE.sub("", " ".join(str(w.commentary).split()))
+        text = text if len(text) <= 300 else text[:297] + "..."
+        if text not in warned:
+            warned.append(text)
 
 
 def _open_layer(real: str, label: str, what: str):

@@ -28,7 +28,7 @@ from .._atomic import atomic_write, check_output_path, check_own_output
 from .._errors import BadValueError, DataFileError
 from ._choices import LightChoice
 from ._files import ImportedScene
-from ._usd_layers import pxr_error, usd_layers
+from ._usd_layers import pxr_error, usd_diagnostics, usd_layers
 
 __all__ = ["WRITE_BACK_MARK", "WRITE_BACK_MARKS", "write_back"]
 
@@ -110,13 +110,14 @@ def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -
     from pxr import Sdf, Usd
 
     label = imported.path.name
-    layers = usd_layers(imported.path, label)  # checked again: the files may have changed
-    try:
-        flat = Usd.Stage.Open(layers.root).Flatten()
-    except Exception as exc:  # pxr raises Tf.ErrorException
-        raise DataFileError(
-            f"{label}: cannot be flattened by usd-core ({pxr_error(exc)})"
-        ) from None
+    with usd_diagnostics():  # usd-core's warnings: reported when the scene was read
+        layers = usd_layers(imported.path, label)  # checked again: the files may have changed
+        try:
+            flat = Usd.Stage.Open(layers.root).Flatten()
+        except Exception as exc:  # pxr raises Tf.ErrorException
+            raise DataFileError(
+                f"{label}: cannot be flattened by usd-core ({pxr_error(exc)})"
+            ) from None
     flat.customLayerData = {**flat.customLayerData, WRITE_BACK_MARK: label}
     stage = Usd.Stage.Open(flat)
     for c in choices:
