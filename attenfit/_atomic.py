@@ -12,13 +12,19 @@ import errno
 import os
 import shutil
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 
 from . import _input
 from ._errors import BadValueError, OutputExistsError
 
-__all__ = ["atomic_dir", "atomic_write", "check_output_path"]
+__all__ = [
+    "atomic_dir",
+    "atomic_write",
+    "check_distinct",
+    "check_output_path",
+    "check_own_output",
+]
 
 _TMP_MARK = ".attenfit-tmp"
 
@@ -51,18 +57,24 @@ def _umask() -> int:
 
 
 def check_output_path(
-    path: str | os.PathLike, *, force: bool = False, folder: bool = False
+    path: str | os.PathLike,
+    *,
+    force: bool = False,
+    folder: bool = False,
+    inputs: Iterable[str | os.PathLike] = (),
 ) -> Path:
     """Validate an output path before any work starts; return it as a `Path`.
 
     Refuses (with `OutputExistsError`) an existing file, or an existing non-empty folder
     when `folder=True`, unless `force`; refuses (with `BadValueError`) a path whose
-    parent is missing, is a file, or is not writable.
+    parent is missing, is a file, or is not writable, and one that is, holds or lies
+    inside an input: a file the running command has read (`attenfit._input.inputs()`) or
+    one of `inputs`.
     """
     path = Path(path)
     if path.is_symlink():  # write through the link to what it names (and never replace it)
         path = Path(os.path.realpath(path))
-    _check_not_input(path, folder)
+    _check_not_input(path, folder, inputs)
     parent = path.parent if str(path.parent) else Path(".")
     for ancestor in [parent, *parent.parents]:
         if ancestor.exists() and not ancestor.is_dir():
@@ -93,16 +105,112 @@ def check_output_path(
     return path
 
 
-def _check_not_input(path: Path, folder: bool) -> None:
-    """Refuse an output that is (or, a folder, holds) a file this command has read."""
+def _check_not_input(path: Path, folder: bool, extra: Iterable[str | os.PathLike] = ()) -> None:
+    """Refuse an output that is, holds or lies inside a file this command reads (its real
+    path, or the same file under another name: a hard link), with or without `force`."""
     out = os.path.realpath(path)
-    for src in _input.inputs():
-        if src == out or (folder and src.startswith(out.rstrip(os.sep) + os.sep)):
-            what = "is" if src == out else "holds"
-            raise BadValueError(
-                f"output {str(path)!r} {what} an input of this command ({src!r}); "
-                "write the output elsewhere"
-            )
+    srcs = _input.inputs() | {os.path.realpath(p) for p in extra}
+    inside = out.rstrip(os.sep) + os.sep
+    try:
+        same = os.stat(out) if os.path.lexists(out) else None
+    except OSError:
+        same = None
+    for src in sorted(srcs):
+        if src == out:
+            what = "is"
+        elif src.startswith(inside):
+            what = "holds"
+        elif out.startswith(src.rstrip(os.sep) + os.sep):
+            what = "lies inside"
+        elif same is not None and not folder and _same_file(same, src):
+            what = "is (a hard link to)"
+        else:
+            continue
+        raise BadValueError(
+            f"output {str(path)!r} {what} an input of this command ({src!r}); "
+            "write the output elsewhere"
+        )
+
+
+def _same_file(st: os.stat_result, src: str) -> bool:
+    try:
+        other = os.stat(src)
+    except OSError:
+        return False
+    return (st.st_dev, st.st_ino) == (other.st_dev, other.st_ino)
+
+
+def check_own_output(
+    path: str | os.PathLike, *, folder: bool = False, marks: Iterable[str | bytes] = ()
+) -> None:
+    """Refuse (before `force` replaces it) an existing output that attenfit did not write:
+    a non-empty folder holding none of the files `marks` names, or a file (a regular one)
+    containing none of the byte strings `marks`. Missing outputs and empty folders pass."""
+    path = Path(os.path.realpath(path))
+    marks = list(marks)
+    if folder:
+        if not path.is_dir() or not any(path.iterdir()):
+            return
+        if any((path / str(m)).is_file() for m in marks):
+            return
+        raise BadValueError(
+            f"output folder {str(path)!r} was not written by attenfit (it holds none of "
+            f"{', '.join(map(str, marks))}); --force replaces only attenfit's own outputs"
+        )
+    if not os.path.lexists(path):
+        return
+    want = [m.encode() if isinstance(m, str) else m for m in marks]
+    if not _holds_mark(path, want):
+        raise BadValueError(
+            f"output file {str(path)!r} was not written by attenfit; --force replaces only "
+            "attenfit's own outputs"
+        )
+
+
+#: How much of an existing output `check_own_output` reads looking for attenfit's mark.
+_MARK_SCAN = 1 << 30
+
+
+def _holds_mark(path: Path, marks: list[bytes]) -> bool:
+    """Whether the regular file `path` contains one of `marks` in its first `_MARK_SCAN`
+    bytes (read without blocking, in chunks; a FIFO, device or folder holds none)."""
+    import stat
+
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError:
+        return False
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            return False
+        keep, tail, left = max((len(m) for m in marks), default=1), b"", _MARK_SCAN
+        while left > 0 and (chunk := os.read(fd, min(1 << 20, left))):
+            left -= len(chunk)
+            data = tail + chunk
+            if any(m in data for m in marks):
+                return True
+            tail = data[-keep:]
+        return False
+    finally:
+        os.close(fd)
+
+
+def check_distinct(outputs: dict[str, str | os.PathLike | None]) -> None:
+    """Refuse two outputs of one command (`{"--out": DIR, "--write-back": FILE}`) that name
+    the same path or where one lies inside the other: the second would replace the first."""
+    given = [(k, str(v), os.path.realpath(v)) for k, v in outputs.items() if v is not None]
+    for i, (k1, v1, r1) in enumerate(given):
+        for k2, v2, r2 in given[i + 1 :]:
+            if r1 == r2:
+                raise BadValueError(
+                    f"{k1} {v1!r} and {k2} {v2!r} name the same path; give each its own"
+                )
+            for (ka, va, ra), (kb, vb, rb) in (((k1, v1, r1), (k2, v2, r2)), ((k2, v2, r2), (k1, v1, r1))):  # fmt: skip
+                if ra.startswith(rb.rstrip(os.sep) + os.sep):
+                    raise BadValueError(
+                        f"{ka} {va!r} lies inside {kb} {vb!r}, which is written as a whole; "
+                        "give it a path outside"
+                    )
 
 
 def atomic_write(
@@ -183,19 +291,23 @@ def _signals_deferred() -> Iterator[None]:
 
 
 @contextlib.contextmanager
-def atomic_dir(path: str | os.PathLike, *, force: bool = False) -> Iterator[Path]:
+def atomic_dir(
+    path: str | os.PathLike, *, force: bool = False, inputs: Iterable[str | os.PathLike] = ()
+) -> Iterator[Path]:
     """Build a folder under a temporary name; move it to `path` only when the block succeeds.
 
     An existing non-empty `path` is refused unless `force`; with `force` it is replaced only
     after the new folder is complete, so an interrupted run leaves the previous one intact.
+    A `path` that holds an input (a file the command read, or one of `inputs`) is refused.
     """
-    path = check_output_path(path, force=force, folder=True)  # also: not an input
+    inputs = tuple(inputs)
+    path = check_output_path(path, force=force, folder=True, inputs=inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
     os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
     try:
         yield tmp
-        check_output_path(path, force=force, folder=True)  # again: inputs read, rivals done
+        check_output_path(path, force=force, folder=True, inputs=inputs)  # inputs read since
         old = None
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")

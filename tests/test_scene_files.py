@@ -513,8 +513,9 @@ def test_files_that_are_not_scenes(tmp_path, capsys):
     code, _, err = _run(capsys, tmp_path / "bad.usda")
     assert code == 2
     assert err == (
-        "attenfit: error: bad.usda: not a USD file usd-core can open (Failed to open layer "
-        "@" + str(tmp_path / "bad.usda") + "@)\n"
+        "attenfit: error: bad.usda: not a USD file usd-core can open (<"
+        + str(tmp_path / "bad.usda")
+        + "> is not a valid usda layer)\n"
     )
     code, _, err = _run(capsys, tmp_path / "bad.glb", "--radius", 0.1)
     assert code == 2 and err.startswith("attenfit: error: bad.glb: not a glTF 2.0 file")

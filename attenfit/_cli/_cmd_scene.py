@@ -75,8 +75,13 @@ def add_parser(sub, parents: list) -> None:
     p.set_defaults(run=_run_scene)
 
 
+#: What `attenfit scene --out DIR` writes (a TOML scene's recommendation, a file's answer):
+#: `--force` replaces an existing DIR only when it holds one, i.e. when attenfit wrote it.
+OWN_FOLDER_MARKS = ("answer.json", "recommendation.json")
+
+
 def _run_scene(args: argparse.Namespace) -> int:
-    from .._atomic import check_output_path
+    from .._atomic import check_distinct, check_output_path, check_own_output
     from .._fit import enable_persistent_cache
     from .._scenes import Scene, engine_scene, is_mesh_scene, recommend
 
@@ -90,16 +95,28 @@ def _run_scene(args: argparse.Namespace) -> int:
                 f"--{given[0].replace('_', '-')} applies to USD and glTF scenes; a TOML scene "
                 "says it in the file"
             )
+    held = None
+    if mesh:  # before any work: the outputs apart, and every file the scene reads found
+        from .._scenes import WRITE_BACK_MARKS, scene_files
+
+        check_distinct({"--out": args.out, "--write-back": args.write_back})
+        held = scene_files(args.file)  # recorded as inputs: no output may replace one
     if args.out is not None:
         check_output_path(args.out, force=args.force, folder=True)
+        if args.force:
+            check_own_output(args.out, folder=True, marks=OWN_FOLDER_MARKS)
     if mesh and args.write_back is not None:
         check_output_path(args.write_back, force=args.force)
+        if args.force:
+            check_own_output(args.write_back, marks=WRITE_BACK_MARKS)
     import jax
 
     jax.config.update("jax_enable_x64", True)  # truth and fits in float64 (float32: a constraint)
     enable_persistent_cache()
     if mesh:
-        return _run_file(args)
+        code = _run_file(args)
+        del held  # a USD scene's layers, opened once, kept open until here
+        return code
     scene = Scene.load(args.file)
     if args.engine is not None:
         from .._scenes import get_engine

@@ -20,6 +20,7 @@ from ._files import ImportedScene as ImportedScene
 from ._files import engine_scene as engine_scene
 from ._files import is_mesh_scene as is_mesh_scene
 from ._files import load_mesh_scene as load_mesh_scene
+from ._files import scene_files as scene_files
 from ._lighting import spot_profile as spot_profile
 from ._recommend import recommend as recommend
 from ._scene import Scene as Scene
@@ -32,3 +33,4 @@ from ._types import LightTruth as LightTruth
 from ._types import PlaneReceivers as PlaneReceivers
 from ._types import PointReceivers as PointReceivers
 from ._types import SceneLight as SceneLight
+from ._writeback import WRITE_BACK_MARKS as WRITE_BACK_MARKS

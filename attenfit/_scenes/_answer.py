@@ -79,7 +79,7 @@ class FileAnswer:
         rec = self.recommendation
         light = dataclasses.replace(rec, scene=dataclasses.replace(rec.scene, receivers=()))
         out = Path(out)
-        with atomic_dir(out, force=force) as tmp:
+        with atomic_dir(out, force=force, inputs=self.imported.inputs) as tmp:
             (tmp / "answer.md").write_text(self.to_markdown(), encoding="utf-8")
             (tmp / "answer.json").write_text(
                 json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"

@@ -19,27 +19,37 @@ Side file keys (`SIDE_KEYS`; every one optional, an option given directly wins):
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import os
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from .. import _input
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._input import LIMITS, load_toml, read_text
 from ._engine import ENGINES, Engine, get_engine
-from ._gltf import GLTF_SUFFIXES, read_gltf
+from ._gltf import GLTF_SUFFIXES, load_gltf, read_gltf
 from ._sample import sample_receivers
 from ._scene import Scene
 from ._toml import SCENE_PRECISIONS
 from ._types import PointReceivers
 from ._usd import USD_SUFFIXES, read_usd
+from ._usd_layers import usd_diagnostics, usd_layers
 
-__all__ = ["SIDE_KEYS", "ImportedScene", "is_mesh_scene", "load_mesh_scene"]
+__all__ = [
+    "SIDE_KEYS",
+    "ImportedScene",
+    "SceneFiles",
+    "is_mesh_scene",
+    "load_mesh_scene",
+    "scene_files",
+]
 
 SIDE_KEYS = {
     "tolerance": "largest acceptable relative error of the irradiance, in (0, 1]; default 0.05",
@@ -78,6 +88,53 @@ class ImportedScene:
     threshold: float | None
     engine: Engine | None
     notices: tuple[str, ...]
+    #: every file the scene read (real paths: a USD scene's layers, a glTF's buffers), which
+    #: no output may replace
+    inputs: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class SceneFiles:
+    """The files a USD or glTF scene reads (`files`, real paths, the scene's own first),
+    found and checked before the scene is read; `held` keeps a USD scene's opened layers,
+    so that reading the scene does not parse them again."""
+
+    files: tuple[str, ...]
+    held: Any = None
+
+
+def scene_files(path: str | os.PathLike) -> SceneFiles:
+    """Every file the USD or glTF scene `path` reads, checked as its reader checks them and
+    recorded as inputs of the running command (`attenfit._input.inputs()`), so that a
+    command can refuse an output that would replace one before any work: a USD scene's
+    layers (`_usd_layers.usd_layers`: inside the scene's folder, regular files within their
+    size limit), a glTF file and the buffers it names (read once, by `load_gltf`)."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in USD_SUFFIXES:  # usd-core's warnings: reported when the scene is read
+        with usd_diagnostics():
+            layers = usd_layers(path, path.name)
+        return SceneFiles(layers.files, layers)
+    if suffix not in GLTF_SUFFIXES:
+        raise BadValueError(
+            f"{path.name}: not a USD (.usd, .usda, .usdc) or glTF (.gltf, .glb) file"
+        )
+    with _reading() as read:
+        load_gltf(path, path.name)
+    return SceneFiles((os.path.realpath(path), *sorted(read - {os.path.realpath(path)})))
+
+
+@contextlib.contextmanager
+def _reading() -> Iterator[set[str]]:
+    """The files read inside the block (real paths), still counted as the running
+    command's inputs afterwards."""
+    read: set[str] = set()
+    try:
+        with _input.tracking():
+            yield read
+            read.update(_input.inputs())
+    finally:
+        _input.declare(read)
 
 
 def _side(path: str | os.PathLike | None) -> dict[str, Any]:
@@ -184,7 +241,8 @@ def load_mesh_scene(
     reader = read_usd if suffix in USD_SUFFIXES else read_gltf
     if suffix not in (*USD_SUFFIXES, *GLTF_SUFFIXES):
         raise BadValueError(f"{label}: not a USD (.usd, .usda, .usdc) or glTF (.gltf, .glb) file")
-    lights, meshes = reader(path, label, radius_for=radius_for, strict=strict_, notice=note)
+    with _reading() as read:
+        lights, meshes = reader(path, label, radius_for=radius_for, strict=strict_, notice=note)
     unknown = set(per_light) - used - {x.name for x in lights} - {_base(x.name) for x in lights}
     if unknown:
         raise UnknownNameError(
@@ -232,6 +290,7 @@ def load_mesh_scene(
         threshold=thr,
         engine=eng,
         notices=tuple(notices),
+        inputs=(os.path.realpath(path), *sorted(read - {os.path.realpath(path)})),
     )
 
 

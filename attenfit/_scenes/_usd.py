@@ -37,22 +37,30 @@ scales non-uniformly (its radius would not be a radius) is refused.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
-from collections.abc import Callable
-from pathlib import Path
+import sys
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
 
-from .._errors import BadValueError, DataFileError
-from .._input import LIMITS, check_file
+from .. import _budget
+from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from ._sample import Mesh, check_mesh, transform_normals
 from ._types import SceneLight
+from ._usd_layers import (
+    MAX_PRIMS,
+    USD_SUFFIXES,
+    UsdLayers,
+    pxr_error,
+    usd_diagnostics,
+    usd_layers,
+)
 
-__all__ = ["UsdLight", "read_usd"]
+__all__ = ["USD_SUFFIXES", "UsdLight", "read_usd"]
 
-USD_SUFFIXES = (".usd", ".usda", ".usdc")
 _UNSUPPORTED = ("RectLight", "DomeLight", "CylinderLight", "DistantLight", "GeometryLight", "PortalLight")  # fmt: skip
 
 
@@ -97,6 +105,14 @@ class UsdLight:
         self.ref = name if ref is None else ref  # USD prim path; glTF light index
 
 
+#: Memory per triangle and per point of a mesh while it is read and sampled (peak above the
+#: baseline: 622 bytes per triangle for a 2,000,000-triangle grid with vertex normals,
+#: `python -m attenfit` on 2 cores), rounded up; what the meshes need together is checked
+#: against the memory budget before any is triangulated.
+BYTES_PER_TRIANGLE = 1024
+BYTES_PER_POINT = 128
+
+
 def read_usd(
     path: str | os.PathLike,
     label: str,
@@ -107,89 +123,229 @@ def read_usd(
 ) -> tuple[list[UsdLight], list[Mesh]]:
     """The lights and meshes of the USD file `path` (`label` names it in messages).
 
-    `radius_for(name)` gives a radius from the options for a light that has none
-    (`treatAsPoint`); `notice` receives one line per skipped prim.
+    Every layer the scene names is found and checked first (`_usd_layers.usd_layers`), so
+    usd-core composes only files inside the scene's folder. `radius_for(name)` gives a
+    radius from the options for a light that has none (`treatAsPoint`); `notice` receives
+    one line per skipped prim, and one per warning of usd-core's (kept off standard error).
     """
+    with usd_diagnostics() as warned:
+        lights, meshes = _read(path, label, radius_for, strict, notice)
+    for text in warned:
+        notice(f"{label}: usd-core: {text}")
+    return lights, meshes
+
+
+def _read(path, label, radius_for, strict, notice) -> tuple[list[UsdLight], list[Mesh]]:
     Usd, UsdGeom, UsdLux = _pxr()
-    path = Path(path)
-    check_file(path, f"scene file {label!r}", LIMITS["mesh_scene"])
-    try:
-        stage = Usd.Stage.Open(str(path), Usd.Stage.LoadAll)
-    except Exception as exc:  # pxr raises Tf.ErrorException with several lines
-        lines = str(exc).strip().splitlines()
-        why = (lines[-1] if lines else str(exc)).strip().rsplit(" : ", 1)[-1].strip("'")
-        raise DataFileError(f"{label}: not a USD file usd-core can open ({why})") from None
-    if stage is None:
-        raise DataFileError(f"{label}: not a USD file usd-core can open")
-    mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
+    layers = usd_layers(path, label)
+    stage = _open_stage(layers, label, Usd)
+    mpu = _meters_per_unit(stage, label, UsdGeom)
     cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    found: list[tuple[Any, str]] = []
+    for k, prim in enumerate(stage.Traverse(Usd.TraverseInstanceProxies())):
+        if k >= MAX_PRIMS:
+            raise BadValueError(
+                f"{label}: more than {MAX_PRIMS:,} prims (instances counted); attenfit reads "
+                f"at most {MAX_PRIMS:,}"
+            )
+        type_name = prim.GetTypeName()
+        if type_name not in (*_UNSUPPORTED, "SphereLight", "DiskLight", "Mesh"):
+            continue
+        with _prim_errors(f"{label}: {type_name} {prim.GetPath()}"):
+            img = UsdGeom.Imageable(prim)
+            if img and (
+                img.ComputeVisibility() == UsdGeom.Tokens.invisible
+                or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
+            ):
+                continue
+        found.append((prim, type_name))
+    _check_mesh_memory([p for p, t in found if t == "Mesh"], layers, label, UsdGeom)
     lights: list[UsdLight] = []
     meshes: list[Mesh] = []
-    for prim in stage.Traverse(Usd.TraverseInstanceProxies()):
+    for prim, type_name in found:
         name = str(prim.GetPath())
-        type_name = prim.GetTypeName()
-        img = UsdGeom.Imageable(prim)
-        if img and (
-            img.ComputeVisibility() == UsdGeom.Tokens.invisible
-            or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
-        ):
-            continue
         if type_name in _UNSUPPORTED:
             msg = f"{label}: {type_name} {name}: not modelled (attenfit takes sphere, disk and spot lights)"
             if strict:
                 raise BadValueError(msg + "; --strict refuses it")
             notice(msg + "; skipped")
             continue
-        if type_name in ("SphereLight", "DiskLight"):
-            m = _matrix(cache.GetLocalToWorldTransform(prim))
-            lights.append(_light(prim, type_name, m, mpu, label, radius_for, UsdLux))
-        elif type_name == "Mesh":
-            mesh = _mesh(prim, cache, mpu, label, UsdGeom)
-            if mesh is not None:
-                meshes.append(mesh)
+        with _prim_errors(f"{label}: {type_name} {name}"):
+            if type_name in ("SphereLight", "DiskLight"):
+                m = _matrix(cache.GetLocalToWorldTransform(prim))
+                lights.append(_light(prim, type_name, m, mpu, label, radius_for, UsdLux))
+            else:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    meshes.append(_mesh(prim, cache, mpu, label, UsdGeom))
     return lights, meshes
+
+
+@contextlib.contextmanager
+def _prim_errors(where: str) -> Iterator[None]:
+    """usd-core's errors while a prim is read (an xformOp whose value has the wrong type, an
+    attribute of an unknown type...) as one line naming the prim: the file's content."""
+    from pxr import Tf
+
+    try:
+        yield
+    except Tf.ErrorException as exc:
+        raise DataFileError(f"{where}: usd-core cannot read it ({pxr_error(exc)})") from None
+
+
+def _length(attr, where: str) -> int:
+    """The element count of an array attribute's value (0 when it has none)."""
+    v = attr.Get()
+    if v is None:
+        return 0
+    try:
+        return len(v)
+    except TypeError:
+        raise BadTypeError(f"{where}: {attr.GetName()} must be an array, got {_show(v)}") from None
+
+
+def _open_stage(layers: UsdLayers, label: str, Usd):
+    """The stage composed from the checked layers, refusing one that used any other file."""
+    try:
+        stage = Usd.Stage.Open(layers.root, Usd.Stage.LoadAll)
+    except Exception as exc:  # pxr raises Tf.ErrorException
+        raise DataFileError(
+            f"{label}: not a USD scene usd-core can compose ({pxr_error(exc)})"
+        ) from None
+    if stage is None:
+        raise DataFileError(f"{label}: not a USD file usd-core can open")
+    checked = set(layers.files)
+    for used in stage.GetUsedLayers():
+        if not used.anonymous and os.path.realpath(used.realPath) not in checked:
+            raise DataFileError(  # never seen: every composition arc is walked first
+                f"{label}: usd-core composed {used.identifier!r}, which attenfit did not check"
+            )
+    return stage
+
+
+def _meters_per_unit(stage, label: str, UsdGeom) -> float:
+    mpu = UsdGeom.GetStageMetersPerUnit(stage)
+    if isinstance(mpu, bool) or not isinstance(mpu, int | float):
+        raise BadValueError(f"{label}: metersPerUnit must be a number, got {mpu!r}")
+    if not (math.isfinite(mpu) and 1e-12 <= mpu <= 1e12):
+        raise BadValueError(
+            f"{label}: metersPerUnit {mpu:g}: must be a length from 1e-12 to 1e12 m "
+            "(0.01 for centimetres, 1 for metres)"
+        )
+    return float(mpu)
+
+
+def _check_mesh_memory(prims, layers: UsdLayers, label: str, UsdGeom) -> None:
+    """Refuse meshes whose triangulation would exceed the memory budget, from their point
+    and face-vertex counts (read before anything is triangulated)."""
+    need, tris, biggest, big_tris = 0, 0, "", -1
+    for prim in prims:
+        mesh = UsdGeom.Mesh(prim)
+        where = f"{label}: Mesh {prim.GetPath()}"
+        with _prim_errors(where):
+            n_pts = _length(mesh.GetPointsAttr(), where)
+            n_idx = _length(mesh.GetFaceVertexIndicesAttr(), where)
+            n_faces = _length(mesh.GetFaceVertexCountsAttr(), where)
+        t = max(n_idx - 2 * n_faces, 0)  # fan triangles: sum(count - 2) over the faces
+        tris += t
+        need += BYTES_PER_TRIANGLE * t + BYTES_PER_POINT * n_pts
+        if t > big_tris:
+            biggest, big_tris = str(prim.GetPath()), t
+    _budget.check(
+        layers.memory + need,
+        f"{label}: {len(prims):,} meshes of {tris:,} triangles (the largest {biggest}, "
+        f"{big_tris:,})",
+        "a scene with fewer or coarser meshes",
+    )
+
+
+def _show(v: Any) -> str:
+    text = repr(v)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _number(attr, default: float, where: str) -> float:
+    """A finite number from `attr` (its default when unauthored), refused with one line
+    naming the attribute otherwise."""
+    v = _get(attr, default)
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise BadTypeError(f"{where}: {attr.GetName()} must be a number, got {_show(v)}")
+    if not math.isfinite(v):
+        raise BadValueError(f"{where}: {attr.GetName()} must be finite, got {v!r}")
+    return float(v)
+
+
+def _flag(attr, where: str) -> bool:
+    v = _get(attr, False)
+    if not isinstance(v, bool):
+        raise BadTypeError(f"{where}: {attr.GetName()} must be true or false, got {_show(v)}")
+    return v
+
+
+def _normal_square(r: float) -> bool:
+    """Whether `r` is a positive length whose square (areas, radiance) is a normal float."""
+    return r > 0 and math.isfinite(r) and sys.float_info.min <= r * r < math.inf
 
 
 def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
     name = str(prim.GetPath())
+    where = f"{label}: {type_name} {name}"
+    if not np.all(np.isfinite(m)) or not all(math.isfinite(float(x) * mpu) for x in m[3, :3]):
+        raise BadValueError(
+            f"{where}: its world transform is not finite (translation {_show(m[3, :3].tolist())} "
+            f"x metersPerUnit {mpu:g})"
+        )
     s = _scales(m)
     if not np.all(s > 0) or (s.max() - s.min()) > 1e-6 * s.max():
         raise BadValueError(
-            f"{label}: {type_name} {name}: non-uniform scale {tuple(round(float(x), 6) for x in s)} "
+            f"{where}: non-uniform scale {tuple(round(float(x), 6) for x in s)} "
             "on a light (its radius would not be a radius); scale its radius instead"
         )
     scale = float(s[0]) * mpu
     api = UsdLux.SphereLight(prim) if type_name == "SphereLight" else UsdLux.DiskLight(prim)
-    r_local = float(_get(api.GetRadiusAttr(), 0.5))
+    r_local = _number(api.GetRadiusAttr(), 0.5, where)
     radius = r_local * scale
-    if type_name == "SphereLight" and bool(_get(api.GetTreatAsPointAttr(), False)):
+    if type_name == "SphereLight" and _flag(api.GetTreatAsPointAttr(), where):
         given = radius_for(name)
         if given is None:
             raise BadValueError(
-                f"{label}: SphereLight {name}: treatAsPoint has no radius; give one with "
+                f"{where}: treatAsPoint has no radius; give one with "
                 f"--radius R (m) or a side file with [lights.'{name}'] radius = R"
             )
         radius = given
-    elif not radius > 0 or not math.isfinite(radius):
+    elif not radius > 0:
         given = radius_for(name)
         if given is None:
             raise BadValueError(
-                f"{label}: {type_name} {name}: radius {radius:g} m is not positive; give one "
+                f"{where}: radius {radius:g} m is not positive; give one "
                 f"with --radius R (m) or a side file with [lights.'{name}'] radius = R"
             )
         radius = given
-    lux = UsdLux.LightAPI(prim)
-    intensity = float(_get(lux.GetIntensityAttr(), 1.0)) * 2.0 ** float(
-        _get(lux.GetExposureAttr(), 0.0)
-    )
-    area = (4.0 if type_name == "SphereLight" else 1.0) * math.pi * radius**2
-    if bool(_get(lux.GetNormalizeAttr(), False)):
-        intensity /= area
-    intensity *= math.pi * radius**2
-    if not intensity > 0:
+    if not _normal_square(radius):
         raise BadValueError(
-            f"{label}: {type_name} {name}: intensity {intensity:g} is not positive (a dark light)"
+            f"{where}: radius {radius:g} m (inputs:radius {r_local:g} x scale {scale:g} m, or "
+            "the one given) is out of range: its square must be a normal float"
         )
+    lux = UsdLux.LightAPI(prim)
+    intensity = _number(lux.GetIntensityAttr(), 1.0, where)
+    exposure = _number(lux.GetExposureAttr(), 0.0, where)
+    area = (4.0 if type_name == "SphereLight" else 1.0) * math.pi * radius**2
+    normalize = _flag(lux.GetNormalizeAttr(), where)
+    if not intensity > 0:
+        raise BadValueError(f"{where}: intensity {intensity:g} is not positive (a dark light)")
+    # radiance x pi r^2; in logarithms first: 2^exposure alone may overflow
+    log2 = math.log2(intensity) + exposure + math.log2(math.pi * radius**2)
+    log2 -= math.log2(area) if normalize else 0.0
+    if not -1000 < log2 < 1000:
+        raise BadValueError(
+            f"{where}: inputs:intensity {intensity:g} x 2^inputs:exposure ({exposure:g}) gives "
+            f"a point-equivalent intensity of 2^{log2:.5g}, outside the float range"
+        )
+    if abs(exposure) < 1000:
+        intensity *= 2.0**exposure
+        intensity = intensity / area if normalize else intensity
+        intensity *= math.pi * radius**2
+    else:
+        intensity = 2.0**log2
     centre = tuple(float(x) * mpu for x in m[3, :3])
     axis = np.array([0.0, 0.0, -1.0]) @ m[:3, :3]
     axis = tuple(float(x) for x in axis / np.linalg.norm(axis))
@@ -197,13 +353,13 @@ def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
     angle = None
     if prim.HasAPI(UsdLux.ShapingAPI):
         shaping = UsdLux.ShapingAPI(prim)
-        angle = float(_get(shaping.GetShapingConeAngleAttr(), 90.0))
-        softness = float(_get(shaping.GetShapingConeSoftnessAttr(), 0.0))
+        angle = _number(shaping.GetShapingConeAngleAttr(), 90.0, where)
+        softness = _number(shaping.GetShapingConeSoftnessAttr(), 0.0, where)
         if angle >= 180:
             angle = None  # no cone
         elif not 0 < angle <= 90:
             raise BadValueError(
-                f"{label}: {type_name} {name}: shaping:cone:angle {angle:g} deg: attenfit "
+                f"{where}: inputs:shaping:cone:angle {angle:g} deg: attenfit "
                 "models cones of 0 to 90 degrees (or 180, no cone)"
             )
     if angle is not None:
@@ -225,26 +381,47 @@ def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
     else:
         kw.update(kind="disk", normal=axis)
         kind = type_name
-    return UsdLight(name, SceneLight(**kw), kind, None)
+    light = SceneLight(**kw)
+    try:
+        light.emitter()  # the emitter's own checks
+    except AttenfitError as exc:
+        raise type(exc)(f"{where}: {exc}") from None
+    return UsdLight(name, light, kind, None)
 
 
-def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh | None:
+def _array(attr, dtype, width: int, where: str) -> np.ndarray:
+    """The values of an array attribute as a (n, width) or (n,) array, or one line naming
+    the attribute when they are not numbers of that shape."""
+    v = attr.Get()
+    try:
+        arr = np.asarray(v if v is not None else [], dtype=dtype)
+        return arr.reshape(-1, width) if width > 1 else arr.reshape(-1)
+    except (TypeError, ValueError, OverflowError):
+        raise BadTypeError(
+            f"{where}: {attr.GetName()} must be an array of "
+            f"{'numbers' if width == 1 else f'{width}-vectors'}, got {_show(v)}"
+        ) from None
+
+
+def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh:
     name = str(prim.GetPath())
+    where = f"{label}: Mesh {name}"
     mesh = UsdGeom.Mesh(prim)
-    pts = np.asarray(mesh.GetPointsAttr().Get() or [], dtype=np.float64).reshape(-1, 3)
-    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get() or [], dtype=np.int64)
-    idx = np.asarray(mesh.GetFaceVertexIndicesAttr().Get() or [], dtype=np.int64)
+    pts = _array(mesh.GetPointsAttr(), np.float64, 3, where)
+    counts = _array(mesh.GetFaceVertexCountsAttr(), np.int64, 1, where)
+    idx = _array(mesh.GetFaceVertexIndicesAttr(), np.int64, 1, where)
     if len(pts) == 0 or len(counts) == 0:
-        raise BadValueError(f"{label}: Mesh {name}: degenerate (no points or no faces)")
+        raise BadValueError(f"{where}: degenerate (no points or no faces)")
     if counts.sum() != len(idx) or np.any(counts < 3):
         raise BadValueError(
-            f"{label}: Mesh {name}: faceVertexCounts (sum {int(counts.sum())}) do not match "
+            f"{where}: faceVertexCounts (sum {int(counts.sum())}) do not match "
             f"the {len(idx)} faceVertexIndices, or a face has fewer than 3 corners"
         )
     if idx.size and (idx.min() < 0 or idx.max() >= len(pts)):
-        raise BadValueError(
-            f"{label}: Mesh {name}: a faceVertexIndex is outside the {len(pts)} points"
-        )
+        raise BadValueError(f"{where}: a faceVertexIndex is outside the {len(pts)} points")
+    m = _matrix(cache.GetLocalToWorldTransform(prim))
+    if not np.all(np.isfinite(m)):
+        raise BadValueError(f"{where}: its world transform is not finite")
     # fan triangulation: face f with corners c0..c(k-1) -> (c0, cj, cj+1), j = 1..k-2
     starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
     n_tri = counts - 2
@@ -253,11 +430,15 @@ def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh | None:
     fv = np.stack(
         [starts[face], starts[face] + j, starts[face] + j + 1], axis=1
     )  # face-varying ids
-    m = _matrix(cache.GetLocalToWorldTransform(prim))
     world = pts @ m[:3, :3] + m[3, :3]
     corners = world[idx[fv]] * mpu
+    if not np.all(np.isfinite(corners)):
+        raise BadValueError(
+            f"{where}: points not finite in metres (points x world transform x "
+            f"metersPerUnit {mpu:g})"
+        )
     left = mesh.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded
-    normals = _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom)
+    normals = _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom, where)
     if normals is None:
         geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
         geo = -geo if left else geo
@@ -266,29 +447,54 @@ def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh | None:
         nn = np.linalg.norm(flat, axis=1, keepdims=True)
         normals = (flat / np.where(nn > 0, nn, 1)).reshape(-1, 3, 3)
     else:
+        det = np.linalg.det(m[:3, :3])
+        if not (math.isfinite(det) and abs(det) > 0):
+            raise BadValueError(
+                f"{where}: its world transform is singular (scales "
+                f"{', '.join(f'{float(x):g}' for x in _scales(m))}): its normals cannot follow it"
+            )
         normals = transform_normals(m, normals.reshape(-1, 3)).reshape(-1, 3, 3)
-    out = Mesh(name, corners, normals, bool(mesh.GetDoubleSidedAttr().Get()))
+    out = Mesh(name, corners, normals, bool(_get(mesh.GetDoubleSidedAttr(), False)))
     check_mesh(out, label)
     return out
 
 
-def _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom) -> np.ndarray | None:
-    """Authored shading normals per triangle corner (local space), or None."""
+def _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom, where) -> np.ndarray | None:
+    """Authored shading normals per triangle corner (local space), or None.
+
+    Their count is checked against the mesh's before they are read or flattened: an indexed
+    primvar's indices (compressed 1,000 to 1 in a crate file) could stand for billions."""
     pv = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar("normals")
+    expect = {
+        "vertex": len(pts),
+        "varying": len(pts),
+        "faceVarying": len(idx),
+        "uniform": len(counts),
+        "constant": 1,
+    }
     if pv and pv.HasAuthoredValue():
-        values = np.asarray(pv.ComputeFlattened() or [], dtype=np.float64).reshape(-1, 3)
         interp = pv.GetInterpolation()
+        n = _length(pv.GetIndicesAttr() if pv.IsIndexed() else pv.GetAttr(), where)
+        if n != expect.get(interp):
+            return None  # a count that does not match: geometric normals
+        flat = pv.ComputeFlattened()
+        try:
+            values = np.asarray(flat if flat is not None else [], np.float64).reshape(-1, 3)
+        except (TypeError, ValueError, OverflowError):
+            raise BadTypeError(
+                f"{where}: primvars:normals must be an array of 3-vectors, got {_show(flat)}"
+            ) from None
     else:
-        values = np.asarray(mesh.GetNormalsAttr().Get() or [], dtype=np.float64).reshape(-1, 3)
         interp = mesh.GetNormalsInterpolation()
-    if len(values) == 0:
+        if _length(mesh.GetNormalsAttr(), where) != expect.get(interp):
+            return None
+        values = _array(mesh.GetNormalsAttr(), np.float64, 3, where)
+    if len(values) != expect.get(interp) or len(values) == 0:
         return None
-    if interp in ("vertex", "varying") and len(values) == len(pts):
+    if interp in ("vertex", "varying"):
         return values[idx[fv]]
-    if interp == "faceVarying" and len(values) == len(idx):
+    if interp == "faceVarying":
         return values[fv]
-    if interp == "uniform" and len(values) == len(counts):
+    if interp == "uniform":
         return np.repeat(values[face][:, None, :], 3, axis=1)
-    if interp == "constant" and len(values) == 1:
-        return np.broadcast_to(values[0], (len(fv), 3, 3)).copy()
-    return None  # a count that does not match: geometric normals
+    return np.broadcast_to(values[0], (len(fv), 3, 3)).copy()

@@ -12,8 +12,9 @@
   `attenfit:checkedError`, `attenfit:params:NAME`, `attenfit:engine` and
   `attenfit:<engine>:PROPERTY`.
 
-The input is never touched; the copy is written atomically and an existing file is
-replaced only with `force`.
+No file the scene reads is ever replaced (every layer of a USD stage, every glTF buffer:
+`ImportedScene.inputs`); the copy is written atomically, and an existing file is replaced
+only with `force` and only when it is attenfit's own write-back (`WRITE_BACK_MARKS`).
 """
 
 from __future__ import annotations
@@ -25,12 +26,21 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .._atomic import atomic_write, check_output_path
-from .._errors import BadValueError
+from .._atomic import atomic_write, check_output_path, check_own_output
+from .._errors import BadValueError, DataFileError
 from ._choices import LightChoice
 from ._files import ImportedScene
+from ._usd_layers import pxr_error, usd_diagnostics, usd_layers
 
-__all__ = ["write_back"]
+__all__ = ["WRITE_BACK_MARK", "WRITE_BACK_MARKS", "write_back"]
+
+#: The key of the `customLayerData` entry that marks a USD copy as attenfit's write-back
+#: (its value: the scene's file name); only a file with it is replaced with `force`.
+WRITE_BACK_MARK = "attenfitWriteBack"
+#: What a file attenfit wrote back holds (a USD copy: the mark, or the `attenfit:`
+#: attributes of copies written before it; a glTF copy: `extras.attenfit`): with `force`, an
+#: existing file is replaced only when it holds one.
+WRITE_BACK_MARKS = (WRITE_BACK_MARK, "attenfit:family", '"attenfit"')
 
 
 def _answer(c: LightChoice, engine: str | None) -> dict[str, Any]:
@@ -68,9 +78,9 @@ def write_back(
             f"--write-back {str(out)!r}: a {imported.format.upper()} scene is written back as "
             f"a {want} file"
         )
-    if out.resolve() == imported.path.resolve():
-        raise BadValueError(f"--write-back {str(out)!r}: is the input file; it is never touched")
-    check_output_path(out, force=force)
+    check_output_path(out, force=force, inputs=imported.inputs or (imported.path,))
+    if force:
+        check_own_output(out, marks=WRITE_BACK_MARKS)
     engine = imported.engine.name if imported.engine is not None else None
     if imported.format == "gltf":
         text = _gltf_text(imported, choices, engine)
@@ -109,10 +119,25 @@ def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) 
 def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -> str:
     from pxr import Sdf, Usd
 
-    flat = Usd.Stage.Open(str(imported.path)).Flatten()
+    label = imported.path.name
+    with usd_diagnostics():  # usd-core's warnings: reported when the scene was read
+        layers = usd_layers(imported.path, label)  # checked again: the files may have changed
+        try:
+            flat = Usd.Stage.Open(layers.root).Flatten()
+        except Exception as exc:  # pxr raises Tf.ErrorException
+            raise DataFileError(
+                f"{label}: cannot be flattened by usd-core ({pxr_error(exc)})"
+            ) from None
+    flat.customLayerData = {**flat.customLayerData, WRITE_BACK_MARK: label}
     stage = Usd.Stage.Open(flat)
     for c in choices:
-        prim = stage.GetPrimAtPath(str(imported.refs[c.light]))
+        path = str(imported.refs[c.light])
+        prim = _editable(stage, path)
+        if prim is None:
+            raise BadValueError(
+                f"--write-back: {label}: light {path} is not in the flattened scene (the "
+                "file changed while attenfit read it?)"
+            )
         ans = _answer(c, engine)
 
         def put(name: str, value: Any, prim=prim) -> None:
@@ -133,6 +158,24 @@ def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -
         for k, v in (ans.get("properties") or {}).items():
             put(f"attenfit:{engine}:{k}", v)
     return stage.GetRootLayer().ExportToString()
+
+
+def _editable(stage, path: str):
+    """The prim at `path`, made editable: a light inside an instance (an instance proxy,
+    shared by every instance of its prototype) gets its own copy by making the instances
+    above it not instanceable in the written copy, so each instance keeps its own answer."""
+    prim = stage.GetPrimAtPath(path)
+    for _ in range(path.count("/") + 1):  # an instance inside an instance: once per level
+        if not prim.IsValid() or not prim.IsInstanceProxy():
+            break
+        top = prim.GetParent()
+        while top.IsValid() and not top.IsInstance():
+            top = top.GetParent()
+        if not top.IsValid():
+            break
+        top.SetInstanceable(False)
+        prim = stage.GetPrimAtPath(path)
+    return prim if prim.IsValid() and not prim.IsInstanceProxy() else None
 
 
 def _camel(key: str) -> str:
