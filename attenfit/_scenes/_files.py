@@ -34,7 +34,7 @@ from .. import _input
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._input import LIMITS, load_toml, read_text
 from ._engine import ENGINES, Engine, get_engine
-from ._gltf import GLTF_SUFFIXES, load_gltf, read_gltf
+from ._gltf import GLTF_SUFFIXES, gltf_files, read_gltf
 from ._sample import sample_receivers
 from ._scene import Scene
 from ._toml import SCENE_PRECISIONS
@@ -108,7 +108,7 @@ def scene_files(path: str | os.PathLike) -> SceneFiles:
     recorded as inputs of the running command (`attenfit._input.inputs()`), so that a
     command can refuse an output that would replace one before any work: a USD scene's
     layers (`_usd_layers.usd_layers`: inside the scene's folder, regular files within their
-    size limit), a glTF file and the buffers it names (read once, by `load_gltf`)."""
+    size limit), a glTF file and the buffers and images it names (`gltf_files`)."""
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in USD_SUFFIXES:  # usd-core's warnings: reported when the scene is read
@@ -119,9 +119,9 @@ def scene_files(path: str | os.PathLike) -> SceneFiles:
         raise BadValueError(
             f"{path.name}: not a USD (.usd, .usda, .usdc) or glTF (.gltf, .glb) file"
         )
-    with _reading() as read:
-        load_gltf(path, path.name)
-    return SceneFiles((os.path.realpath(path), *sorted(read - {os.path.realpath(path)})))
+    files = gltf_files(path, path.name)
+    _input.declare(files)
+    return SceneFiles(files)
 
 
 @contextlib.contextmanager

@@ -95,10 +95,11 @@ class _Gltf:
                 self.refs.append(None)
             else:
                 self.refs.append(self.folder.resolve(uri, f"buffers[{k}].uri"))
+        self.images: list[Path] = []  # the image files it names (a write-back embeds them)
         for k, img in enumerate(self.doc.get("images") or []):
             uri = img.get("uri")
             if uri is not None and not is_data_uri(uri):
-                self.folder.resolve(uri, f"images[{k}].uri")
+                self.images.append(self.folder.resolve(uri, f"images[{k}].uri"))
         self._buffers: dict[int, Any] = {}
 
     def buffer_cost(self, k: int) -> int:
@@ -221,6 +222,14 @@ def _node_name(doc: dict[str, Any], k: int) -> str:
 
 
 # ----------------------------------------------------------------------------- reading
+def gltf_files(path: str | os.PathLike, label: str) -> tuple[str, ...]:
+    """Every file the glTF scene `path` reads or embeds (its own, its buffers', its images'),
+    as real paths, each resolved and checked inside its folder; no buffer is read."""
+    g = _Gltf(Path(path), label)
+    named = [p for p in (*g.refs, *g.images) if p is not None]
+    return tuple(dict.fromkeys(os.path.realpath(p) for p in (Path(path), *named)))
+
+
 def read_gltf(
     path: str | os.PathLike,
     label: str,
