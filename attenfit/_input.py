@@ -37,6 +37,7 @@ __all__ = [
     "read_bytes",
     "read_npz",
     "read_text",
+    "text_name",
 ]
 
 #: Size limits per kind of input (bytes). A real scene file is a few kB (a list of 4,096
@@ -55,6 +56,13 @@ MAX_DEPTH = 32
 
 def _mib(n: int) -> str:
     return f"{n / (1 << 20):.3g} MiB" if n >= 1 << 20 else f"{n:,} bytes"
+
+
+def text_name(path: str | os.PathLike) -> str:
+    """`path` as text that any UTF-8 file can hold: its bytes decoded as UTF-8, those that are
+    not as `\\xNN`. (Under an ASCII locale Python names `Küche.npz` 'K\\udcc3\\udcbcche.npz',
+    which no UTF-8 file can hold; its bytes are UTF-8: `Küche.npz`.)"""
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
 
 
 def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
