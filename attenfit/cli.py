@@ -83,6 +83,14 @@ def get_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Signals that came before `main` installed its handlers (`run` records them).
+_EARLY: list[int] = []
+
+
+def _record_early(signum, frame) -> None:
+    _EARLY.append(signum)
+
+
 def _on_signal(signum, frame) -> None:
     """SIGINT and SIGTERM: note the signal (no output is committed after it) and unwind,
     once (`attenfit._atomic.on_signal`)."""
@@ -132,7 +140,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             for s in (signal.SIGINT, signal.SIGTERM):
                 saved[s] = signal.signal(s, _on_signal)
             sys.unraisablehook = _quiet_interrupts(hook)
+        _atomic.PENDING.extend(_EARLY)  # signals that came while the process started
+        _EARLY.clear()
         state.active = True
+        _atomic.check_pending()
         code = _main(argv)
     except KeyboardInterrupt as exc:
         state.active = False
@@ -183,6 +194,7 @@ def _main(argv: Sequence[str] | None) -> int:
             parser.print_help(sys.stderr)
             return EXIT_BAD_INPUT
         _check_paths(args)
+        _check_names_written(args)
         progress = _progress.Progress(f"attenfit {args.verb}", quiet=args.quiet)
         with _progress.active(progress), _input.tracking():  # outputs may not replace inputs
             _input.declare(_file_arguments(args))
@@ -219,6 +231,7 @@ def _main(argv: Sequence[str] | None) -> int:
 # ----------------------------------------------------------------------------- arguments
 #: The longest argument attenfit takes (characters): a path may be 4,095 bytes (PATH_MAX).
 MAX_ARGUMENT = 4096
+_PATH_MAX = 4096
 #: The options that name files: dest -> (how the command line calls it, an output?).
 _PATH_OPTIONS = {
     "out": ("--out", True),
@@ -276,6 +289,11 @@ def _check_paths(args: argparse.Namespace) -> None:
             if not isinstance(text, str):
                 continue
             raw = os.fsencode(text)
+            if len(raw) >= _PATH_MAX:
+                raise BadValueError(
+                    f"{label} {_shown(text)}: a path of {len(raw):,} bytes, over the "
+                    f"{_PATH_MAX - 1:,} the file system allows (PATH_MAX)"
+                )
             name_max = _name_max(raw)
             parts = raw.rstrip(b"/").split(b"/")
             for k, part in enumerate(parts):
@@ -297,6 +315,32 @@ def _check_paths(args: argparse.Namespace) -> None:
 _PUNCTUATION = "`'\"()[],:"
 
 
+#: Verbs whose output files quote an input's name: verb -> (the input, the outputs' options).
+_NAMED_IN_OUTPUTS = {"scene": ("file", ("out", "write_back"))}
+
+
+def _check_names_written(args: argparse.Namespace) -> None:
+    """Refuse up front an input name that is not text here (bytes Python could not decode:
+    an ASCII locale, or a name that is not UTF-8) when the command's output files would
+    quote it: they are UTF-8, and the command would otherwise fail only once written."""
+    if args.verb not in _NAMED_IN_OUTPUTS:
+        return
+    name, outputs = _NAMED_IN_OUTPUTS[args.verb]
+    value = getattr(args, name, None)
+    if not isinstance(value, str) or not any(getattr(args, o, None) for o in outputs):
+        return
+    if any("\udc80" <= c <= "\udcff" for c in value):
+        raise BadValueError(_not_text(value))
+
+
+def _not_text(name: str) -> str:
+    return (
+        f"the name {_shown(name, 60)} is not UTF-8 text here, and attenfit writes it into a "
+        "UTF-8 file: rename it, or run under a UTF-8 locale (LC_ALL=C.UTF-8) or with "
+        "PYTHONUTF8=1"
+    )
+
+
 def _environment_error(exc: Exception) -> str | None:
     """The one-line message for an error the environment, not attenfit, caused: a file name
     the file system refuses, a full or read-only disk; a name that is not text in this
@@ -315,11 +359,7 @@ def _environment_error(exc: Exception) -> str | None:
                 (w for w in exc.object.split() if any("\udc80" <= c <= "\udcff" for c in w)),
                 exc.object,
             ).strip(_PUNCTUATION)
-            return (
-                f"the name {_shown(word, 60)} is not UTF-8 text here, and attenfit writes it "
-                "into a UTF-8 file: rename it, or run under a UTF-8 locale (LC_ALL=C.UTF-8) "
-                "or with PYTHONUTF8=1"
-            )
+            return _not_text(word)
     return None
 
 
@@ -345,9 +385,10 @@ def _file_arguments(args: argparse.Namespace) -> list[str]:
 def run() -> None:
     """The console entry point: `main()`, then exit with its code.
 
-    SIGINT and SIGTERM are ignored outside `main` (which handles them while the verb runs),
-    so a signal that comes as the process leaves cannot end it with a traceback or a
-    different code. After Ctrl-C or SIGTERM the process leaves through `os._exit` once its
+    SIGINT and SIGTERM are only recorded outside `main`: one that came while the process
+    started stops the command as soon as `main` begins (exit 130/143); one that comes as it
+    leaves cannot end it with a traceback or another code. (Only one in the first tenth of
+    a second, while Python itself starts and imports this module, gets Python's default.) After Ctrl-C or SIGTERM the process leaves through `os._exit` once its
     output is flushed: an interrupt that lands while XLA is compiling can otherwise crash
     the interpreter's shutdown (a segfault instead of exit 130/143). Nothing is lost: every
     output was already committed or removed by the verb's own clean-up.
@@ -356,7 +397,7 @@ def run() -> None:
     import signal
 
     for s in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(s, signal.SIG_IGN)
+        signal.signal(s, _record_early)
     code = main()
     if code in (130, 143):
         for stream in (sys.stdout, sys.stderr):
