@@ -94,9 +94,7 @@ def _record_early(signum, frame) -> None:
 def _on_signal(signum, frame) -> None:
     """SIGINT and SIGTERM: note the signal (no output is committed after it) and unwind,
     once (`attenfit._atomic.on_signal`)."""
-    from ._atomic import on_signal
-
-    on_signal(signum)
+    _atomic.on_signal(signum)
 
 
 def _quiet_interrupts(hook):
@@ -109,9 +107,7 @@ def _quiet_interrupts(hook):
 
     def quiet(unraisable) -> None:
         if isinstance(unraisable.exc_value, KeyboardInterrupt):
-            from ._atomic import rearm
-
-            rearm()
+            _atomic.rearm()
         else:
             hook(unraisable)
 
@@ -128,8 +124,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     import signal
     import threading
-
-    from . import _atomic
 
     state = _atomic.SIGNALS
     saved: dict = {}
@@ -351,7 +345,7 @@ def _environment_error(exc: Exception) -> str | None:
         errno.ENAMETOOLONG, errno.ELOOP, errno.EACCES, errno.EPERM, errno.EROFS,
         errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.ENOTDIR, errno.EISDIR,
     )  # fmt: skip
-    if isinstance(exc, OSError) and exc.errno in refused and exc.filename is not None:
+    if isinstance(exc, OSError) and exc.errno in refused and isinstance(exc.filename, str | bytes):
         return f"{_shown(os.fsdecode(exc.filename), 60)}: {exc.strerror}"
     if isinstance(exc, UnicodeError) and isinstance(getattr(exc, "object", None), str):
         if any("\udc80" <= c <= "\udcff" for c in exc.object):
