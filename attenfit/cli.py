@@ -309,7 +309,7 @@ def _check_paths(args: argparse.Namespace) -> None:
 _PUNCTUATION = "`'\"()[],:"
 
 
-#: Verbs whose output files quote an input's name: verb -> (the input, the outputs' options).
+#: Verbs whose output files quote an input's file name: verb -> (the input, the outputs).
 _NAMED_IN_OUTPUTS = {"scene": ("file", ("out", "write_back"))}
 
 
@@ -323,7 +323,7 @@ def _check_names_written(args: argparse.Namespace) -> None:
     value = getattr(args, name, None)
     if not isinstance(value, str) or not any(getattr(args, o, None) for o in outputs):
         return
-    if any("\udc80" <= c <= "\udcff" for c in value):
+    if any("\udc80" <= c <= "\udcff" for c in os.path.basename(value)):  # its name is quoted
         raise BadValueError(_not_text(value))
 
 
