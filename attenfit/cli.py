@@ -379,9 +379,9 @@ def _file_arguments(args: argparse.Namespace) -> list[str]:
 def run() -> None:
     """The console entry point: `main()`, then exit with its code.
 
-    SIGINT and SIGTERM are only recorded outside `main`: one that came while the process
-    started stops the command as soon as `main` begins (exit 130/143); one that comes as it
-    leaves cannot end it with a traceback or another code. (Only one in the first tenth of
+    SIGINT and SIGTERM are only recorded outside `main`, then ignored: one that came while
+    the process started stops the command as soon as `main` begins (exit 130/143); one that
+    comes as it leaves cannot end it with a traceback or another code. (Only one in the first tenth of
     a second, while Python itself starts and imports this module, gets Python's default.) After Ctrl-C or SIGTERM the process leaves through `os._exit` once its
     output is flushed: an interrupt that lands while XLA is compiling can otherwise crash
     the interpreter's shutdown (a segfault instead of exit 130/143). Nothing is lost: every
@@ -393,6 +393,8 @@ def run() -> None:
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, _record_early)
     code = main()
+    for s in (signal.SIGINT, signal.SIGTERM):  # not _record_early: Python's shutdown would
+        signal.signal(s, signal.SIG_IGN)  # put back the default (SIGTERM: death, exit -15)
     if code in (130, 143):
         for stream in (sys.stdout, sys.stderr):
             with contextlib.suppress(OSError, ValueError):

@@ -392,6 +392,62 @@ def test_a_signal_before_main_stops_the_command_at_once(capsys):
     assert out.err.strip() == "attenfit: terminated; any previous output is unchanged"
 
 
+_LEAVING = r"""
+import atexit, os, subprocess, sys, time
+from attenfit import cli
+from attenfit._cli import _cmd_families
+
+# a second process that sends SIGTERM every 0.1 ms, from the moment this one starts to
+# leave (its atexit hooks) until it is gone
+KILLER = '''
+import os, sys, time
+sys.stdin.readline()
+while True:
+    try:
+        os.kill(int(sys.argv[1]), 15)
+    except ProcessLookupError:
+        break
+    time.sleep(0.0001)
+'''
+
+def verb(args):
+    killer = subprocess.Popen([sys.executable, "-c", KILLER, str(os.getpid())],
+                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL)
+    def leaving():
+        killer.stdin.write(b"go\n")
+        killer.stdin.flush()
+        time.sleep(0.3)
+    atexit.register(leaving)
+    global garbage  # work for Python's shutdown, after it has put back the default handlers
+    garbage = [{"x": list(range(20))} for _ in range(300_000)]
+    print("done", flush=True)
+    return 0
+
+_cmd_families._run_families = verb
+sys.argv = ["attenfit", "families"]
+cli.run()
+"""
+
+
+def test_signals_as_the_process_leaves_change_nothing(tmp_path):
+    """A command that has finished exits with its own code, however many SIGTERMs come while
+    it leaves: before, Python's shutdown put back the default handler and the process died
+    (exit -15) after writing its outputs."""
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    for _ in range(3):
+        proc = subprocess.run(
+            [sys.executable, "-c", _LEAVING],
+            capture_output=True,
+            text=True,
+            timeout=240,  # catches a hang only
+            env=env,
+            cwd=tmp_path,
+        )
+        assert proc.returncode == 0, (proc.returncode, proc.stderr)
+        assert proc.stdout == "done\n" and "Traceback" not in proc.stderr
+
+
 # ----------------------------------------------------------------------------- all or nothing
 def _gltf_room(path: Path) -> Path:
     """A glTF file: a 10 m floor (two triangles, normals +z) and a point light 1 m above it."""
