@@ -270,7 +270,7 @@ def test_a_storm_of_sigints_ends_in_one_line_and_130(tmp_path, moment):
     for _ in range(5):  # a report that finished before the moment came: run it again
         shutil.rmtree(tmp_path / "rep", ignore_errors=True)
         proc = _start(REPORT, tmp_path)
-        _wait_for(lambda: _handlers_installed(proc.pid), proc)
+        _wait_for(lambda p=proc: _handlers_installed(p.pid), proc)
         if moment == "while-working":
             time.sleep(1.0)
         elif moment == "while-writing":
