@@ -43,10 +43,67 @@ class Interrupted(KeyboardInterrupt):
 PENDING: list[int] = []
 
 
+class _Signals:
+    """What the CLI's SIGINT/SIGTERM handler may do now, for one command (`cli.main`).
+
+    * `active`: the command is running inside `main`'s handling of `Interrupted`; outside it
+      (before, after) a signal is only recorded.
+    * `raised`: one `Interrupted` is on its way up; further signals (a storm of Ctrl-C) are
+      only recorded, so none can land in the clean-up or in the one-line message and escape
+      as a traceback. Python swallowing the one raised (in a callback) re-arms it (`rearm`).
+    * `final`: the command has begun committing one of its declared outputs (`outputs`, the
+      real paths of `--out` and `--write-back`): from there on it completes, so that outputs
+      are all or nothing, and signals are only recorded.
+    """
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        self.active = self.raised = self.final = False
+        self.outputs: frozenset[str] = frozenset()
+        PENDING.clear()
+
+
+SIGNALS = _Signals()
+
+
+def on_signal(signum: int) -> None:
+    """The CLI's SIGINT and SIGTERM handler: record the signal, and raise `Interrupted` if
+    the command may still stop (see `_Signals`)."""
+    PENDING.append(signum)
+    state = SIGNALS
+    if state.active and not state.raised and not state.final:
+        state.raised = True
+        raise Interrupted(signum)
+
+
+def rearm() -> None:
+    """Python swallowed the `Interrupted` a handler raised: let the next signal raise."""
+    SIGNALS.raised = False
+
+
+def declare_outputs(paths: Iterable[str | os.PathLike]) -> None:
+    """The running command's outputs: committing any of them is the point of no return."""
+    SIGNALS.outputs = frozenset(os.path.realpath(p) for p in paths)
+
+
 def check_pending() -> None:
-    """Raise `Interrupted` if a SIGINT or SIGTERM arrived (see `PENDING`)."""
-    if PENDING:
+    """Raise `Interrupted` if a SIGINT or SIGTERM arrived (see `PENDING`), unless the command
+    is already committing its outputs."""
+    if PENDING and not SIGNALS.final:
+        SIGNALS.raised = True
         raise Interrupted(PENDING[0])
+
+
+def _commit_point(path: Path) -> None:
+    """Right before the rename that puts `path` in place: stop if a signal arrived; if
+    `path` is one of the command's outputs, pass the point of no return (a signal from now
+    on is recorded, not raised, and the command completes: all its outputs, or, had the
+    signal come a moment earlier, none)."""
+    check_pending()
+    if SIGNALS.outputs and os.path.realpath(path) in SIGNALS.outputs:
+        SIGNALS.final = True
 
 
 def _umask() -> int:
@@ -241,7 +298,7 @@ def atomic_write(
             tmp_path.write_bytes(data)
         with open(tmp_path, "rb+") as fh:
             os.fsync(fh.fileno())
-        check_pending()
+        _commit_point(path)
         if force:
             os.replace(tmp_path, path)
         else:  # a link fails if the name exists: nothing that appeared meanwhile is replaced
@@ -312,7 +369,7 @@ def atomic_dir(
         if path.exists():
             old = path.with_name(f".{path.name}.old{_TMP_MARK}")
             shutil.rmtree(old, ignore_errors=True)
-        check_pending()
+        _commit_point(path)
         with _signals_deferred():  # Ctrl-C between the two renames would hide the old folder
             if old is not None:
                 os.replace(path, old)

@@ -19,6 +19,7 @@ __all__ = ["BudgetError", "budget", "check", "describe"]
 ENV = "ATTENFIT_MEMORY_BUDGET"
 _UNITS = {"": 1, "k": 1e3, "m": 1e6, "g": 1e9, "t": 1e12, "ki": 2**10, "mi": 2**20, "gi": 2**30}
 _UNITS["ti"] = 2**40
+_MOST = float(2**63)  # the largest budget: what a byte count in C may be
 
 
 class BudgetError(BadValueError):
@@ -32,14 +33,21 @@ def _physical() -> int:
         return 8 << 30
 
 
+def _shown(text: str) -> str:
+    """`text` for a message: quoted, and cut short if it is long."""
+    return repr(text) if len(text) <= 40 else f"{text[:40]!r}... ({len(text):,} characters)"
+
+
 def parse(text: str) -> int:
     """Bytes from `4096`, `512M`, `8G`, `1.5GiB` (decimal k/M/G/T, binary Ki/Mi/Gi/Ti)."""
     m = re.fullmatch(r"\s*([0-9]+(?:\.[0-9]*)?(?:[eE][0-9]+)?)\s*([kKmMgGtT]i?)?[bB]?\s*", text)
     if not m:
-        raise BadValueError(f"{ENV} must be a size like 4096, 512M or 8G, got {text!r}")
+        raise BadValueError(f"{ENV} must be a size like 4096, 512M or 8G, got {_shown(text)}")
     value = float(m.group(1)) * _UNITS[(m.group(2) or "").lower()]
     if not value >= 1 << 20:
-        raise BadValueError(f"{ENV} must be at least 1M, got {text!r}")
+        raise BadValueError(f"{ENV} must be at least 1M, got {_shown(text)}")
+    if not value < _MOST:  # 1e400 is a float infinity, which no integer holds
+        raise BadValueError(f"{ENV} must be below 2^63 bytes (9.2 EB), got {_shown(text)}")
     return int(value)
 
 

@@ -9,27 +9,49 @@ Every entry belongs to one **code version**: a hash of attenfit's own source fil
 the versions of the libraries that shape what is cached (Python, JAX, jaxlib, equinox,
 optimistix, numpy). Entries of another version (another attenfit, another jaxlib) live in
 another folder and are never read: a stale cache is ignored and rebuilt, never trusted.
-Each entry carries a checksum of its payload; one that does not match (a truncated or
-corrupt file) is ignored with a one-line notice and rebuilt. A cache that cannot be written
-(a read-only folder) is only read. Nothing here ever raises into a caller: a cache is an
-optimisation.
+
+**The cache is untrusted input.** Anything could sit where an entry should be, so an entry
+is read only if it is a regular file (not a FIFO, device, socket, folder or symbolic link)
+inside the cache folder (no linked subfolder leads out of it), no larger than its kind's
+limit (`LIMITS`), with the right header and checksum, and, for the kinds that hold JSON,
+of the shape its readers expect (`_SHAPES`). Anything else is ignored with a one-line
+notice on stderr and rebuilt: the next write replaces it. A cache that cannot be written
+(a read-only folder) is only read. Nothing here ever raises into a caller (an interrupt
+aside): a cache is an optimisation.
 """
 
 from __future__ import annotations
 
+import contextlib
+import errno
 import functools
 import hashlib
+import json
 import os
 import shutil
+import stat
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
-__all__ = ["clear", "code_version", "folder", "info", "notice", "read", "write"]
+__all__ = ["LIMITS", "clear", "code_version", "folder", "info", "notice", "read", "write"]
 
 _MAGIC = b"attenfit-cache-1\n"
 _LIBRARIES = ("jax", "jaxlib", "equinox", "optimistix", "numpy")
 _NOTICED: set[str] = set()
+
+#: The largest entry of each kind (bytes, header included); other kinds: `LIMITS[None]`.
+#: Measured: the families' descriptions 9 kB, a compiler's counts 0.2 kB, the compilers'
+#: versions 0.2 kB, a traced solve 50-80 kB.
+LIMITS: dict[str | None, int] = {
+    "families": 1 << 20,
+    "compilers": 64 << 10,
+    "compiled": 64 << 10,
+    "solve": 64 << 20,
+    None: 64 << 20,
+}
 
 
 def folder() -> Path:
@@ -61,57 +83,246 @@ def code_version() -> str:
 
 
 def _entry(kind: str, key: str) -> Path:
-    digest = hashlib.sha256(key.encode()).hexdigest()[:32]
+    digest = hashlib.sha256(key.encode("utf-8", "surrogatepass")).hexdigest()[:32]
     return folder() / "entries" / code_version() / kind / f"{digest}.bin"
 
 
 def notice(message: str) -> None:
-    """Say `message` on stderr, once per process."""
+    """Say `message` on stderr, once per process (never failing: stderr may be closed)."""
     if message not in _NOTICED:
         _NOTICED.add(message)
-        print(f"attenfit: {message}", file=sys.stderr, flush=True)
+        try:
+            print(f"attenfit: {message}", file=sys.stderr, flush=True)
+        except (OSError, ValueError):
+            pass
+
+
+class _Bad(Exception):
+    """An entry that is there but may not be used: the message says why."""
 
 
 def read(kind: str, key: str) -> bytes | None:
     """The payload cached under (`kind`, `key`) for this code version, or None.
 
-    A missing entry is None; an unreadable or corrupt one too, after a one-line notice.
+    A missing entry is None; one that may not be used (see the module's docstring) too,
+    after a one-line notice.
     """
-    path = _entry(kind, key)
+    path = None
     try:
-        data = path.read_bytes()
-    except OSError:
-        return None
-    start = len(_MAGIC)
-    checksum, payload = data[start : start + 64], data[start + 65 :]
-    if data.startswith(_MAGIC) and hashlib.sha256(payload).hexdigest().encode() == checksum:
+        path = _entry(kind, key)
+        data = _read_entry(path, LIMITS.get(kind, LIMITS[None]))
+        if data is None:
+            return None
+        start = len(_MAGIC)
+        checksum, payload = data[start : start + 64], data[start + 65 :]
+        if not (
+            data.startswith(_MAGIC)
+            and data[start + 64 : start + 65] == b"\n"
+            and hashlib.sha256(payload).hexdigest().encode() == checksum
+        ):
+            notice(f"ignoring a corrupt cache entry ({path}); it will be rebuilt")
+            return None
+        shape = _SHAPES.get(kind)
+        if shape is not None:
+            why = _check_json(payload, shape)
+            if why is not None:
+                raise _Bad(f"holds {why}")
         return payload
-    notice(f"ignoring a corrupt cache entry ({path}); it will be rebuilt")
+    except _Bad as exc:
+        notice(f"ignoring a cache entry that {exc} ({path}); it will be rebuilt")
+    except Exception as exc:  # the cache is an optimisation: never a reason to fail
+        notice(f"not using the cache ({type(exc).__name__}: {exc})")
     return None
 
 
-def write(kind: str, key: str, payload: bytes) -> bool:
-    """Cache `payload` under (`kind`, `key`) atomically; False (silently) if it cannot be."""
-    path = _entry(kind, key)
-    data = _MAGIC + hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload
+def _inside(path: Path) -> bool:
+    """Whether `path`'s folder is, with every link resolved, inside the cache's folder."""
+    root = os.path.realpath(folder())
+    return os.path.realpath(path.parent).startswith(root.rstrip(os.sep) + os.sep)
+
+
+def _read_entry(path: Path, limit: int) -> bytes | None:
+    """The bytes of the entry `path` (None if there is none); `_Bad` if it may not be read."""
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
+        st = os.lstat(path)
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    if stat.S_ISLNK(st.st_mode):
+        raise _Bad("is a symbolic link")
+    if not stat.S_ISREG(st.st_mode):
+        raise _Bad("is not a regular file (a folder, FIFO, device or socket)")
+    if not _inside(path):
+        raise _Bad("lies outside the cache folder (through a linked folder)")
+    if st.st_size > limit:
+        raise _Bad(f"is {st.st_size:,} bytes, over the {limit:,} an entry of its kind may be")
+    flags = os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_NOFOLLOW", 0) | os.O_CLOEXEC
+    try:
+        fd = os.open(path, flags)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        why = "is a symbolic link" if exc.errno == errno.ELOOP else "cannot be read"
+        raise _Bad(f"{why} ({exc.strerror})") from None
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):  # replaced since the lstat
+            raise _Bad("is not a regular file (a folder, FIFO, device or socket)")
+        chunks, total = [], 0
+        while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
+            chunks.append(chunk)
+            total += len(chunk)
+            if total > limit:
+                raise _Bad(f"grew past the {limit:,} bytes an entry of its kind may be")
+        return b"".join(chunks)
+    except OSError as exc:
+        raise _Bad(f"cannot be read ({exc.strerror})") from None
+    finally:
+        os.close(fd)
+
+
+def write(kind: str, key: str, payload: bytes) -> bool:
+    """Cache `payload` under (`kind`, `key`) atomically; False (silently) if it cannot be.
+
+    Whatever sits where the entry or its folders belong and is not what the cache made
+    (a link, a FIFO, a file where a folder belongs) is replaced.
+    """
+    try:
+        path = _entry(kind, key)
+        data = _MAGIC + hashlib.sha256(payload).hexdigest().encode() + b"\n" + payload
+        if len(data) > LIMITS.get(kind, LIMITS[None]):
+            return False  # it could not be read back
+        _make_folders(path.parent)
+        if not _inside(path):
+            return False
+        with contextlib.suppress(OSError):  # a folder where the entry belongs
+            if stat.S_ISDIR(os.lstat(path).st_mode):
+                shutil.rmtree(path)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".bin")
         try:
             with os.fdopen(fd, "wb") as f:
                 f.write(data)
-            os.replace(tmp, path)
+            os.replace(tmp, path)  # replaces a link, FIFO or socket, never follows it
         finally:
-            if os.path.exists(tmp):
+            if os.path.lexists(tmp):
                 os.unlink(tmp)
-    except OSError:
+    except Exception:  # OSError (read-only, full, missing home), or anything else: skip it
         return False
     return True
 
 
+def _make_folders(target: Path) -> None:
+    """Make `target` and the folders between it and the cache's root, replacing any link
+    or other non-folder found among them (the root itself is the user's to choose)."""
+    root = folder()
+    root.mkdir(parents=True, exist_ok=True)
+    current = root
+    for part in target.relative_to(root).parts:
+        current = current / part
+        try:
+            st = os.lstat(current)
+        except FileNotFoundError:
+            os.mkdir(current)
+            continue
+        if not stat.S_ISDIR(st.st_mode):  # a link (to anywhere), a file, a FIFO
+            os.unlink(current)
+            os.mkdir(current)
+
+
+# ----------------------------------------------------------------------------- shapes
+def _check_json(payload: bytes, shape: Callable[[Any], str | None]) -> str | None:
+    """None if `payload` is JSON of the shape `shape` checks, else what is wrong."""
+    try:
+        value = json.loads(payload.decode("utf-8"))
+    except (ValueError, RecursionError):
+        return "no valid JSON"
+    return shape(value)
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
+
+
+def _families_shape(rows: Any) -> str | None:
+    """`attenfit families`' rows: `Family.describe()` of each family."""
+    if not isinstance(rows, list) or not rows:
+        return "no list of families"
+    for row in rows:
+        if not isinstance(row, dict):
+            return "a family that is not a JSON object"
+        for field in ("name", "formula", "source"):
+            if not isinstance(row.get(field), str):
+                return f"a family whose {field!r} is not text"
+        params = row.get("params")
+        if not isinstance(params, dict):
+            return f"family {row['name'][:40]!r} without a 'params' object"
+        for name, spec in params.items():
+            default = spec.get("default") if isinstance(spec, dict) else None
+            if not (
+                _number(default) or (isinstance(default, list) and all(_number(v) for v in default))
+            ):
+                return f"parameter {name[:40]!r} without a numeric default"
+    return None
+
+
+def _compilers_shape(versions: Any) -> str | None:
+    """The compilers' versions: tool name -> version text or null."""
+    if not isinstance(versions, dict) or not all(
+        v is None or isinstance(v, str) for v in versions.values()
+    ):
+        return "no object of tool versions"
+    return None
+
+
+def _compiled_shape(counts: Any) -> str | None:
+    """One compiled program's counts (`attenfit._shaders._compilers.Compiled.to_dict()`)."""
+    if not isinstance(counts, dict) or not isinstance(counts.get("tool"), str):
+        return "no compiled counts"
+    total, classes = counts.get("total"), counts.get("classes")
+    if not (isinstance(total, int) and not isinstance(total, bool) and total >= 0):
+        return "no operation total"
+    if not isinstance(classes, dict) or not all(
+        isinstance(v, int) and not isinstance(v, bool) for v in classes.values()
+    ):
+        return "no operation classes"
+    return None
+
+
+#: The kinds of entry that hold JSON, and their shape. "solve" holds `jax.export` bytes,
+#: which its reader deserialises and rebuilds when JAX cannot read them.
+_SHAPES: dict[str, Callable[[Any], str | None]] = {
+    "families": _families_shape,
+    "compilers": _compilers_shape,
+    "compiled": _compiled_shape,
+}
+
+
+# ----------------------------------------------------------------------------- attenfit cache
 def _size(path: Path) -> tuple[int, int]:
-    files = [p for p in path.rglob("*") if p.is_file()] if path.is_dir() else []
-    return len(files), sum(p.stat().st_size for p in files)
+    """The regular files under the folder `path` and their bytes; links are not followed."""
+    files = size = 0
+    if not _is_dir(path):
+        return 0, 0
+    for top, dirs, names in os.walk(path, onerror=lambda exc: None):
+        for name in names + dirs:
+            with contextlib.suppress(OSError):
+                st = os.lstat(os.path.join(top, name))
+                if stat.S_ISREG(st.st_mode):
+                    files, size = files + 1, size + st.st_size
+    return files, size
+
+
+def _is_dir(path: Path) -> bool:
+    """A folder, not a link to one."""
+    try:
+        return stat.S_ISDIR(os.lstat(path).st_mode)
+    except OSError:
+        return False
+
+
+def _subfolders(path: Path) -> list[Path]:
+    try:
+        return [p for p in sorted(path.iterdir()) if _is_dir(p)] if _is_dir(path) else []
+    except OSError:
+        return []
 
 
 def info() -> dict:
@@ -120,12 +331,8 @@ def info() -> dict:
     root = folder()
     entries = root / "entries"
     current = entries / code_version()
-    kinds = {}
-    if current.is_dir():
-        kinds = {k.name: _size(k) for k in sorted(current.iterdir()) if k.is_dir()}
-    stale = {}
-    if entries.is_dir():
-        stale = {v.name: _size(v) for v in sorted(entries.iterdir()) if v != current}
+    kinds = {k.name: _size(k) for k in _subfolders(current)}
+    stale = {v.name: _size(v) for v in _subfolders(entries) if v != current}
     return {
         "folder": str(root),
         "code_version": code_version(),
@@ -137,12 +344,17 @@ def info() -> dict:
 
 def clear() -> tuple[int, int]:
     """Delete the cache (every version's entries and JAX's compilation cache); return the
-    (files, bytes) removed."""
+    (files, bytes) removed. A link in their place is removed, never followed."""
     root = folder()
     removed = (0, 0)
     for sub in ("entries", "jax"):
         path = root / sub
         n, size = _size(path)
-        shutil.rmtree(path, ignore_errors=True)
-        removed = (removed[0] + n, removed[1] + size)
+        if _is_dir(path):
+            shutil.rmtree(path, ignore_errors=True)
+        elif os.path.lexists(path):
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+        left, left_size = _size(path)
+        removed = (removed[0] + n - left, removed[1] + size - left_size)
     return removed

@@ -20,11 +20,12 @@ import tomllib
 import zipfile
 from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from ._errors import DataFileError
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = [
     "LIMITS",
@@ -37,6 +38,7 @@ __all__ = [
     "read_bytes",
     "read_npz",
     "read_text",
+    "text_name",
 ]
 
 #: Size limits per kind of input (bytes). A real scene file is a few kB (a list of 4,096
@@ -55,6 +57,13 @@ MAX_DEPTH = 32
 
 def _mib(n: int) -> str:
     return f"{n / (1 << 20):.3g} MiB" if n >= 1 << 20 else f"{n:,} bytes"
+
+
+def text_name(path: str | os.PathLike) -> str:
+    """`path` as text that any UTF-8 file can hold: its bytes decoded as UTF-8, those that are
+    not as `\\xNN`. (Under an ASCII locale Python names `Küche.npz` 'K\\udcc3\\udcbcche.npz',
+    which no UTF-8 file can hold; its bytes are UTF-8: `Küche.npz`.)"""
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
 
 
 def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
@@ -100,6 +109,8 @@ _DOTTED = re.compile(rf"{_SEGMENT}(?:[ \t]*\.[ \t]*{_SEGMENT}){{{MAX_DEPTH},}}")
 
 def _depth(structure: str) -> int:
     """The deepest nesting of `[`/`{` in `structure` (strings already blanked)."""
+    import numpy as np  # here, not on import: the CLI's start (and its signal handlers) waits
+
     b = np.frombuffer(structure.encode("utf-8", "replace"), np.uint8)
     step = np.isin(b, (ord("["), ord("{"))).astype(np.int32) - np.isin(b, (ord("]"), ord("}")))
     return int(np.cumsum(step).max(initial=0))
@@ -142,10 +153,7 @@ def load_toml(text: str, what: str) -> dict[str, Any]:
 # ----------------------------------------------------------------------------- npz archives
 #: The dtypes an attenfit archive holds: floats (either byte order) and the header's text.
 _NPZ_KINDS = {"f": (4, 8), "U": None}
-_NPY_HEADERS = {
-    (1, 0): np.lib.format.read_array_header_1_0,
-    (2, 0): np.lib.format.read_array_header_2_0,
-}
+_NPY_HEADERS = {(1, 0): "read_array_header_1_0", (2, 0): "read_array_header_2_0"}
 
 
 def _open_regular(path: Path, what: str) -> int:
@@ -260,12 +268,14 @@ def read_npz(
 
 
 def _read_member(archive: zipfile.ZipFile, m: zipfile.ZipInfo, where: str, noun: str) -> np.ndarray:
+    import numpy as np
+
     try:
         with archive.open(m) as f:
             version = np.lib.format.read_magic(f)
             if version not in _NPY_HEADERS:
                 raise DataFileError(f"{where} has .npy format version {version}; reads 1.0, 2.0")
-            shape, fortran, dtype = _NPY_HEADERS[version](f)
+            shape, fortran, dtype = getattr(np.lib.format, _NPY_HEADERS[version])(f)
             if dtype.hasobject or dtype.kind not in _NPZ_KINDS:
                 raise DataFileError(f"{where} holds {dtype} values; attenfit reads float arrays")
             sizes = _NPZ_KINDS[dtype.kind]

@@ -31,7 +31,8 @@ FAST = settings(max_examples=60 * SCALE, deadline=None, suppress_health_check=li
 SLOW = settings(max_examples=12 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
 
 NUMBERS = ["nan", "inf", "-inf", "1e-50", "1e308", "-1", "0", "1e40", "0.3", "2", "1e-320", "x", ""]
-PATHS = ["/dev/zero", "/dev/null", "/", "nope/missing.json", "\udcff.json", "a\nb.json"]
+PATHS = ["/dev/zero", "/dev/null", "/", "nope/missing.json", "\udcff.json", "a\nb.json",
+         "n" * 300 + ".json", "p/" * 2100, "\0.json"]  # fmt: skip
 FAMILIES = ["yuksel", "spline", "gltf_range", "madams_tan", "inverse_square", "laser", ""]
 
 
@@ -60,9 +61,11 @@ def test_export_arguments(capsys, data):
         elif opt == "--form":
             argv += [opt, data.draw(st.sampled_from(["shader", "stable", "fast"]))]
         elif opt == "--name":
-            argv += [opt, data.draw(st.sampled_from(["f", "1f", "a b", "main", "x\ny", "d"]))]
+            names = ["f", "1f", "a b", "main", "x\ny", "d", "n" * 100_000, "\udcff"]
+            argv += [opt, data.draw(st.sampled_from(names))]
         else:
-            argv += [opt, str(WORK / data.draw(st.sampled_from(["o.glsl", "", "o/../"])))]
+            outs = ["o.glsl", "", "o/../", "o" * 300 + ".glsl", "\udcfe.glsl"]
+            argv += [opt, str(WORK / data.draw(st.sampled_from(outs)))]
     argv.append("--force")
     _run(argv, capsys)
 

@@ -55,10 +55,11 @@ def _fit_configuration(args: argparse.Namespace):
     """The dataset of `--data`, or the facing sweep `--emitter` describes; and its description."""
     import numpy as np
 
+    from .._input import text_name
     from .._truth import Dataset, facing_sweep
 
-    if args.data is not None:
-        return Dataset.load(args.data), f"dataset {args.data}"
+    if args.data is not None:  # the name goes into fits.json: as UTF-8 text whatever the locale
+        return Dataset.load(args.data), f"dataset {text_name(args.data)}"
     if args.radius is None or not (args.radius > 0) or not np.isfinite(args.radius):
         raise BadValueError(f"--emitter {args.emitter} needs --radius R > 0, got {args.radius}")
     r = args.radius

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from .. import _progress
-from .._errors import AttenfitError
+from .._errors import AttenfitError, BadValueError
 from ._common import EXIT_OK
 
 
@@ -79,9 +79,9 @@ def _run_report(args: argparse.Namespace) -> int:
     for path in args.mitsuba:
         # the file's stem names the configuration: letters, digits and '_.+-' (it names files)
         name = re.sub(r"[^A-Za-z0-9_.+-]", "_", Path(path).stem).lstrip("_.+-")[:48] or "dataset"
-        datasets[name if name not in datasets else f"{name}-{len(datasets) + 1}"] = Dataset.load(
-            path
-        )
+        ds = Dataset.load(path)
+        _check_grid(path, ds)
+        datasets[name if name not in datasets else f"{name}-{len(datasets) + 1}"] = ds
     witness = None
     if not args.no_mitsuba:  # once the options are known to be good (no thread left behind)
         from .._report import resolve_emitters, resolve_families
@@ -107,6 +107,68 @@ def _run_report(args: argparse.Namespace) -> int:
     failed = sum(1 for r in rep.results if r["status"] != "ok")
     _progress.done(f"wrote {out}/report.md ({len(rep.results)} results, {failed} marked failed)")
     return EXIT_OK
+
+
+def _check_grid(path: str, ds) -> None:
+    """Refuse, before any work, a `--mitsuba` dataset whose provenance describes a receiver
+    grid the report cannot draw: what the report reads (`shape`, `grid_index`, the axes
+    `up`, `x_axis`, `y_axis`, `extent`; `variant` beside `spp`) must be what `plane_receivers`
+    and `attenfit gen` write, and the image must fit the memory budget."""
+    import math
+
+    import numpy as np
+
+    from .. import _budget
+    from .._input import text_name
+
+    prov = ds.provenance
+    where = f"--mitsuba {text_name(path)[:80]!r}"
+
+    def bad(what: str, value) -> BadValueError:
+        return BadValueError(f"{where}: its provenance {what}, got {repr(value)[:60]}")
+
+    def whole(v) -> bool:
+        return isinstance(v, int) and not isinstance(v, bool)
+
+    def vector(v) -> bool:
+        return (
+            isinstance(v, list)
+            and len(v) == 3
+            and all((whole(x) or isinstance(x, float)) and math.isfinite(x) for x in v)
+            and any(x != 0 for x in v)
+        )
+
+    if "spp" in prov and "variant" not in prov:
+        raise bad("gives 'spp' without 'variant'", prov["spp"])
+    shape = prov.get("shape")
+    if shape is None:
+        return
+    if not isinstance(shape, list) or not all(whole(v) and v > 0 for v in shape):
+        raise bad("'shape' must be a list of positive integers", shape)
+    if len(shape) != 2:
+        return  # not an image: the report does not draw it
+    cells = shape[0] * shape[1]
+    _budget.check(cells * 128, f"the {shape[0]} x {shape[1]} grid of {where}", "a smaller grid")
+    index = prov.get("grid_index", list(range(cells)) if cells == len(ds) else None)
+    if not isinstance(index, list) or len(index) != len(ds):
+        raise bad(f"'grid_index' must list the grid cell of each of its {len(ds)} receivers", index)
+    if not all(whole(i) for i in index):
+        raise bad("'grid_index' must hold integers", next(i for i in index if not whole(i)))
+    flat = np.asarray(index, np.int64)
+    if flat.size and not (flat.min() >= 0 and flat.max() < cells):
+        outside = flat[(flat < 0) | (flat >= cells)]
+        raise bad(f"'grid_index' must lie in [0, {cells}) for a {shape} grid", int(outside[0]))
+    cells_used, counts = np.unique(flat, return_counts=True)
+    if np.any(counts > 1):
+        raise bad("'grid_index' must name each grid cell once", int(cells_used[counts > 1][0]))
+    for key in ("up", "x_axis", "y_axis"):
+        if key in prov and not vector(prov[key]):
+            raise bad(f"{key!r} must be 3 finite numbers, not all 0", prov[key])
+    extent = prov.get("extent")
+    if extent is not None and not (
+        (whole(extent) or isinstance(extent, float)) and math.isfinite(extent) and extent > 0
+    ):
+        raise bad("'extent' must be a finite number > 0", extent)
 
 
 class _Witness:

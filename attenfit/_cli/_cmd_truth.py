@@ -92,6 +92,8 @@ def _check_configuration(args: argparse.Namespace) -> None:
         raise BadValueError(f"--radius must be > 0, got {args.radius}")
     if args.samples is not None and args.samples < 1:
         raise BadValueError(f"--samples must be >= 1, got {args.samples}")
+    if args.seed < 0:
+        raise BadValueError(f"--seed must be a non-negative integer, got {args.seed}")
 
 
 def _configuration_dataset(args: argparse.Namespace, dtype: str):
