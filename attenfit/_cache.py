@@ -241,25 +241,33 @@ def _number(v: Any) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool)
 
 
-def _families_shape(rows: Any) -> str | None:
-    """`attenfit families`' rows: `Family.describe()` of each family."""
-    if not isinstance(rows, list) or not rows:
-        return "no list of families"
-    for row in rows:
-        if not isinstance(row, dict):
-            return "a family that is not a JSON object"
-        for field in ("name", "formula", "source"):
-            if not isinstance(row.get(field), str):
-                return f"a family whose {field!r} is not text"
-        params = row.get("params")
-        if not isinstance(params, dict):
-            return f"family {row['name'][:40]!r} without a 'params' object"
-        for name, spec in params.items():
-            default = spec.get("default") if isinstance(spec, dict) else None
-            if not (
-                _number(default) or (isinstance(default, list) and all(_number(v) for v in default))
-            ):
-                return f"parameter {name[:40]!r} without a numeric default"
+def _families_shape(listing: Any) -> str | None:
+    """`attenfit families`' listing: `describe()` of each family and of each area model."""
+    if not isinstance(listing, dict) or set(listing) != {"families", "area_models"}:
+        return "no listing of families and area models"
+    for kind, rows in listing.items():
+        if not isinstance(rows, list) or (kind == "families" and not rows):
+            return f"no list of {kind.replace('_', ' ')}"
+        bad = next(filter(None, map(_model_row, rows)), None)
+        if bad is not None:
+            return bad
+    return None
+
+
+def _model_row(row: Any) -> str | None:
+    """One model's `describe()`: name, formula and source as text, numeric defaults."""
+    if not isinstance(row, dict):
+        return "a model that is not a JSON object"
+    for field in ("name", "formula", "source"):
+        if not isinstance(row.get(field), str):
+            return f"a model whose {field!r} is not text"
+    params = row.get("params")
+    if not isinstance(params, dict):
+        return f"model {row['name'][:40]!r} without a 'params' object"
+    for name, spec in params.items():
+        default = spec.get("default") if isinstance(spec, dict) else None
+        if not (_number(default) or (isinstance(default, list) and all(map(_number, default)))):
+            return f"parameter {name[:40]!r} without a numeric default"
     return None
 
 

@@ -206,6 +206,10 @@ def _main(argv: Sequence[str] | None) -> int:
     except BrokenPipeError:
         return EXIT_OK
     except Exception as exc:
+        if _atomic.PENDING and _atomic.SIGNALS.raised:
+            # the interrupt, surfacing as another error (raised inside a C extension's import,
+            # it becomes "ImportError: initialization failed"): an interrupt, not a bug
+            raise _atomic.Interrupted(_atomic.PENDING[0]) from exc
         message = _environment_error(exc)
         if message is not None:  # the file system or the locale refused a name: not a bug
             print(f"attenfit: error: {message}".replace("\n", " "), file=sys.stderr)

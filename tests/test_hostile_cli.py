@@ -107,19 +107,44 @@ def test_an_entry_linked_to_dev_zero_is_ignored_not_read(cache_dir):
 @pytest.mark.parametrize(
     "payload, fragment",
     [
-        (b"[1, 2]", "a family that is not a JSON object"),
-        (b"{}", "no list of families"),
-        (b"[]", "no list of families"),
-        (b'[{"name": "x", "formula": 1, "source": "s", "params": {}}]', "'formula' is not text"),
-        (b'[{"name": "x", "formula": "f", "source": "s"}]', "without a 'params' object"),
+        (b"[1, 2]", "no listing of families and area models"),
+        (b"{}", "no listing of families and area models"),
+        (b'{"families": [], "area_models": []}', "no list of families"),
+        (b'{"families": [1, 2], "area_models": []}', "a model that is not a JSON object"),
         (
-            b'[{"name": "x", "formula": "f", "source": "s", "params": {"r": {"default": [[1]]}}}]',
+            b'{"families": [{"name": "x", "formula": 1, "source": "s", "params": {}}], '
+            b'"area_models": []}',
+            "'formula' is not text",
+        ),
+        (
+            b'{"families": [{"name": "x", "formula": "f", "source": "s"}], "area_models": []}',
+            "without a 'params' object",
+        ),
+        (
+            b'{"families": [], "area_models": [{"name": "x", "formula": "f", "source": "s", '
+            b'"params": {"r": {"default": [[1]]}}}]}',
+            "no list of families",
+        ),
+        (
+            b'{"families": [{"name": "x", "formula": "f", "source": "s", '
+            b'"params": {"r": {"default": [[1]]}}}], "area_models": []}',
             "parameter 'r' without a numeric default",
         ),
         (b"[" * 100_000 + b"]" * 100_000, "no valid JSON"),
         (b"\xff\xfe not text", "no valid JSON"),
     ],
-    ids=["ints", "object", "empty", "formula", "params", "nested-default", "deep", "bytes"],
+    ids=[
+        "list",
+        "object",
+        "empty",
+        "ints",
+        "formula",
+        "params",
+        "no-families",
+        "nested-default",
+        "deep",
+        "bytes",
+    ],
 )
 def test_a_checksum_valid_entry_of_the_wrong_shape_is_rebuilt(cache_dir, capsys, payload, fragment):
     entry = _families_entry()
@@ -133,7 +158,8 @@ def test_a_checksum_valid_entry_of_the_wrong_shape_is_rebuilt(cache_dir, capsys,
     _assert_rebuilt(entry)
     assert main(["families", "--json"]) == 0  # and the rebuilt one serves
     rows = json.loads(capsys.readouterr().out)
-    assert [r["name"] for r in rows] == af.list_families()
+    assert [r["name"] for r in rows["families"]] == af.list_families()
+    assert [r["name"] for r in rows["area_models"]] == af.list_area_models()
 
 
 def test_an_oversized_entry_is_refused_before_reading(cache_dir, capsys):

@@ -615,3 +615,23 @@ def test_sigterm_late_in_a_scene_run_is_all_or_nothing(tmp_path, delays):
             proc.send_signal(signal.SIGTERM)
         code, _, err = _finish(proc)
         _all_or_nothing(tmp_path, code, err)
+
+
+def test_an_interrupt_surfacing_as_another_error_is_an_interrupt(monkeypatch, capsys):
+    """A signal whose `Interrupted` is raised inside a C extension's import reaches the
+    command as `ImportError: initialization failed` (seen once under load, SIGTERM early in
+    a scene run): exit 143 with the one line, not a bug report."""
+    from attenfit import _atomic
+    from attenfit._cli import _cmd_families
+    from attenfit.cli import main
+
+    def interrupted_import(args):
+        try:
+            _atomic.on_signal(signal.SIGTERM)  # the handler raises `Interrupted`...
+        except KeyboardInterrupt:  # ...which a C extension's import turns into this
+            raise ImportError("initialization failed") from None
+
+    monkeypatch.setattr(_cmd_families, "_run_families", interrupted_import)
+    assert main(["families"]) == 128 + signal.SIGTERM
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "terminated" in err and "internal error" not in err

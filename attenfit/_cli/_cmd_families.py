@@ -9,6 +9,9 @@ import json
 from .. import _cache
 from ._common import EXIT_OK
 
+#: The cache entry of the listing (`attenfit._cache`, kind "families": checked in shape there).
+CACHE_KEY = "describe"
+
 
 def add_parser(sub, parents: list) -> None:
     p = sub.add_parser(
@@ -28,7 +31,7 @@ def add_parser(sub, parents: list) -> None:
 def _descriptions() -> dict[str, list[dict]]:
     """Every built-in family's and area model's `describe()`, from the cache when this code
     wrote it (so that listing them does not import JAX), else from the models themselves."""
-    cached = _cache.read("families", "describe families and area models")
+    cached = _cache.read("families", CACHE_KEY)
     if cached is not None:
         try:
             return json.loads(cached)
@@ -40,7 +43,7 @@ def _descriptions() -> dict[str, list[dict]]:
         "families": [get_family(name).describe() for name in list_families()],
         "area_models": [get_area_model(name)().describe() for name in list_area_models()],
     }
-    _cache.write("families", "describe families and area models", json.dumps(rows).encode())
+    _cache.write("families", CACHE_KEY, json.dumps(rows).encode())
     return rows
 
 

@@ -122,7 +122,7 @@ def _check_grid(path: str, ds) -> None:
     from .._input import text_name
 
     prov = ds.provenance
-    where = f"--mitsuba {text_name(path)[:80]!r}"
+    where = f"--mitsuba {text_name(path)!r}"  # at most PATH_MAX: the command line checks
 
     def bad(what: str, value) -> BadValueError:
         return BadValueError(f"{where}: its provenance {what}, got {repr(value)[:60]}")
