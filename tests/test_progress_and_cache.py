@@ -1,7 +1,8 @@
 """What a long command says while it works, and the cache that makes the next run quick.
 
-Progress: stage lines and bars on a terminal only; one summary line otherwise; nothing with
---quiet; every progress point also stops the command when an interrupt was swallowed. The
+Progress: stage lines wherever stderr goes; bars on a terminal, paced plain count lines (no
+carriage returns) elsewhere; nothing with --quiet; every progress point also stops the command
+when an interrupt was swallowed; a piped command's first stage line arrives while it works. The
 cache (`attenfit._cache`, `attenfit cache`): a second process loads a solve instead of
 tracing it; an entry of another code version is never read; a corrupt entry is ignored with
 one notice and rebuilt; a read-only cache is only read.
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -30,11 +32,22 @@ class _Terminal(io.StringIO):
 
 
 # ----------------------------------------------------------------------------- progress
+class _Clock:
+    """A clock the test moves (the stage lines' times and the plain lines' pace)."""
+
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
 def test_a_terminal_gets_stage_lines_bars_and_the_summary():
-    out = _Terminal()
-    p = _progress.Progress("attenfit test", stream=out)
+    out, clock = _Terminal(), _Clock()
+    p = _progress.Progress("attenfit test", stream=out, clock=clock)
     with _progress.active(p):
         _progress.stage("first stage")
+        clock.now += 2.25
         with _progress.count(3, "three things") as bar:
             for _ in range(3):
                 bar.update()
@@ -42,21 +55,39 @@ def test_a_terminal_gets_stage_lines_bars_and_the_summary():
         _progress.done("did it")
     text = out.getvalue()
     assert "attenfit test: [  0.0 s] first stage" in text
-    assert "attenfit test: [  0.0 s] three things" in text
+    assert "attenfit test: [  2.2 s] three things" in text
     assert "3/3" in text and "compiling, first run only" in text  # tqdm's bar and its note
-    assert text.rstrip().endswith(")") and "attenfit test: did it (" in text
+    assert text.rstrip().endswith(")") and "attenfit test: did it (2.2 s)" in text
 
 
-def test_a_log_gets_the_summary_only_and_quiet_gets_nothing():
-    for quiet, expected in ((False, 1), (True, 0)):
-        out = io.StringIO()  # not a terminal
-        with _progress.active(_progress.Progress("attenfit test", quiet=quiet, stream=out)):
+def test_a_log_gets_plain_stage_and_count_lines_at_a_pace_and_quiet_gets_nothing():
+    """Off a terminal: a line per stage, a count's progress at most once every PLAIN_EVERY
+    seconds, each note once, no carriage return; quiet: nothing at all."""
+    every = _progress.PLAIN_EVERY
+    for quiet in (False, True):
+        out, clock = io.StringIO(), _Clock()  # not a terminal
+        with _progress.active(
+            _progress.Progress("attenfit test", quiet=quiet, stream=out, clock=clock)
+        ):
             _progress.stage("a stage")
-            with _progress.count(2, "two things") as bar:
-                bar.update(2)
+            with _progress.count(10, "ten things") as bar:
+                for _ in range(10):
+                    clock.now += every / 2  # a line every second update
+                    bar.update()
+                    _progress.note("compiling")
             _progress.done("summary")
-        assert out.getvalue().count("\n") == expected
-        assert ("summary" in out.getvalue()) == (not quiet)
+        text = out.getvalue()
+        if quiet:
+            assert text == ""
+            continue
+        assert "\r" not in text
+        assert text.splitlines() == [
+            "attenfit test: [  0.0 s] a stage",
+            "attenfit test: [  0.0 s] ten things",
+            f"attenfit test: [{every / 2:5.1f} s] compiling",
+            *(f"attenfit test: [{k * every / 2:5.1f} s] ten things: {k}/10" for k in (2, 4, 6, 8)),
+            f"attenfit test: summary ({10 * every / 2:.1f} s)",
+        ]
 
 
 def test_without_a_command_the_stages_say_nothing(capsys):
@@ -74,8 +105,14 @@ def test_a_progress_point_raises_a_swallowed_interrupt():
         with _progress.active(_progress.Progress("attenfit test", stream=io.StringIO())):
             with pytest.raises(_atomic.Interrupted):
                 _progress.stage("next stage")
-            with _progress.count(2, "work") as bar, pytest.raises(_atomic.Interrupted):
-                bar.update()
+            with pytest.raises(_atomic.Interrupted):  # a count's start is a stage
+                with _progress.count(2, "work"):
+                    pass
+            _atomic.PENDING.clear()
+            with _progress.count(2, "work") as bar:
+                _atomic.PENDING.append(signal.SIGTERM)
+                with pytest.raises(_atomic.Interrupted):
+                    bar.update()
     finally:
         _atomic.PENDING.clear()
 
@@ -87,8 +124,75 @@ def test_cli_quiet_prints_nothing_on_stderr(tmp_path, capsys):
     captured = capsys.readouterr()
     assert captured.err == "" and "[[Fit]] yuksel" in captured.out
     assert main([*argv, "--force"]) == 0
-    err = capsys.readouterr().err
-    assert err.startswith("attenfit fit: 1 fits converged; wrote ") and err.count("\n") == 1
+    *stages, summary = capsys.readouterr().err.splitlines()
+    # the stage lines, their times aside (a loaded machine takes longer)
+    assert [re.sub(r"\[ *\d+\.\d s\]", "[t]", s) for s in stages] == [
+        "attenfit fit: [t] the data",
+        "attenfit fit: [t] fitting 1 families",
+    ]
+    assert summary.startswith("attenfit fit: 1 fits converged; wrote ")
+
+
+_HELD = r"""
+import sys
+from attenfit._cli import _cmd_fit
+
+read_data = _cmd_fit._fit_configuration
+
+
+def held(*args, **kwargs):  # the work, held until the test has read the first stage line
+    sys.stdin.readline()
+    return read_data(*args, **kwargs)
+
+
+_cmd_fit._fit_configuration = held
+from attenfit.cli import main
+
+sys.exit(main(sys.argv[1:]))
+"""
+_FIT_ARGV = ["fit", "--family", "yuksel", "--emitter", "disk", "--radius", "0.5"]
+
+
+def test_piped_stage_lines_arrive_while_the_command_works_and_quiet_silences_them(tmp_path):
+    """stderr a pipe (a log, CI): the first stage line is there while the command is held in
+    the middle of its work, before its result on stdout; plain lines, no carriage returns."""
+    import select
+
+    env = {**os.environ, "ATTENFIT_CACHE_DIR": str(tmp_path / "cache"), "PYTHONPATH": str(REPO)}
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _HELD, *_FIT_ARGV],
+        env=env,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        # a guard against a hang, not a measurement: the line comes at once
+        assert select.select([proc.stderr], [], [], 120)[0], "no stage line on the pipe"
+        first = proc.stderr.readline()
+        assert first.startswith("attenfit fit: [") and first.endswith("] the data\n")
+        assert proc.poll() is None  # held in the middle of its work
+        assert not select.select([proc.stdout], [], [], 0)[0]  # no result yet
+        out, rest = proc.communicate("go\n", timeout=300)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, rest[-2000:]
+    assert "[[Fit]] yuksel" in out
+    err = first + rest
+    assert "\r" not in err
+    assert err.splitlines()[-1].startswith("attenfit fit: 1 fits converged (")
+    quiet = subprocess.run(
+        [sys.executable, "-m", "attenfit", *_FIT_ARGV, "--quiet"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert quiet.returncode == 0 and "[[Fit]] yuksel" in quiet.stdout
+    assert quiet.stderr == ""
 
 
 # ----------------------------------------------------------------------------- the cache

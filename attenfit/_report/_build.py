@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _budget
+from .. import _budget, _progress
 from .._curves import Family, get_family, list_families
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._truth import emitter_from_dict
@@ -310,6 +310,13 @@ def _fit_range(cls: type, start: Mapping[str, Any]) -> float | None:
 
 
 def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
+    """`_fit_rows` with a count of the (family, configuration) rows done (a bar, or lines)."""
+    total = len(classes) * len(sweep_cfgs)
+    with _progress.count(total, "fit: families x configurations") as bar:
+        _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar)
+
+
+def _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar) -> None:
     """Fit every family on every sweep, in one solve per sample count (`_report_fit`).
 
     Only shape parameters are free (`shape_free`): a range is the user's budget and stays at
@@ -340,6 +347,7 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
                     results.append(
                         evaluate_row(cls.name, c, "fitted", model, note=note, store=values)
                     )
+                    bar.update()
                     continue
                 w = (
                     (c.sweep.d <= 0.5 * rg).astype(np.float64)
@@ -360,6 +368,7 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
             return pub[(cls.name, c.name)][0]
 
         for (cls, c, rg), out in zip(keys, outs, strict=True):
+            bar.update()
             if out is None:
                 results.append(failed_row(cls.name, c, f"fit error: {error}"))
                 continue
