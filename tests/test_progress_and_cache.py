@@ -11,6 +11,7 @@ one notice and rebuilt; a read-only cache is only read.
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
 import signal
@@ -296,3 +297,64 @@ def test_cli_cache_info_and_clear(cache_dir, capsys):
     assert "removed 1 files" in capsys.readouterr().out
     assert not (cache_dir / "entries").exists()
     assert main(["cache"]) == 0 and "no entries for this version yet" in capsys.readouterr().out
+
+
+_COUNT_COMPILES = r"""
+import json, sys, numpy as np, jax
+
+events = {"requests": 0, "hits": 0}
+names = {
+    "/jax/compilation_cache/compile_requests_use_cache": "requests",
+    "/jax/compilation_cache/cache_hits": "hits",
+}
+
+
+def listen(name, **kwargs):
+    if name in names:
+        events[names[name]] += 1
+
+
+jax.monitoring.register_event_listener(listen)
+jax.config.update("jax_enable_x64", True)
+import attenfit as af
+from attenfit._fit import enable_persistent_cache
+
+enable_persistent_cache()
+d = np.geomspace(0.01, 10, 64)[None].repeat(4, 0)
+t = 1 / (d**2 + np.array([[0.01], [0.02], [0.03], [0.04]]))
+res = af.fit_many(af.Yuksel(r=np.full(4, 0.1)), d, t)
+disk = af.DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], 0.1)
+E = af.irradiance(disk, np.array([[0.0, 0.0, -1.0]]), np.array([[0.0, 0.0, 1.0]]))
+print(json.dumps({**events, "r": res.params["r"].tolist(), "E": float(E[0])}))
+"""
+
+
+def _compiles(cache_dir: Path) -> dict:
+    env = {**os.environ, "ATTENFIT_CACHE_DIR": str(cache_dir), "PYTHONPATH": str(REPO)}
+    proc = subprocess.run(
+        [sys.executable, "-c", _COUNT_COMPILES],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_a_copied_cache_folder_is_as_warm_as_the_original(tmp_path):
+    """JAX's cache keys must not name the cache folder: a cache copied elsewhere (a CI cache,
+    another machine's home) loads every program; none is compiled again (JAX's own events:
+    each program asks the cache; a hit is loaded, anything else compiled)."""
+    import shutil
+
+    a, b = tmp_path / "a", tmp_path / "b"
+    cold = _compiles(a)
+    assert cold["requests"] > 0 and cold["hits"] == 0  # an empty cache: all compiled
+    shutil.copytree(a, b)
+    files = sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file())
+    warm = _compiles(b)
+    assert warm["requests"] == cold["requests"]  # the same programs, each asked for
+    assert warm["hits"] == warm["requests"]  # every one loaded: none compiled again
+    assert sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file()) == files  # none new
+    assert (warm["r"], warm["E"]) == (cold["r"], cold["E"])
