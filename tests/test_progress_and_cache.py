@@ -358,3 +358,60 @@ def test_a_copied_cache_folder_is_as_warm_as_the_original(tmp_path):
     assert warm["hits"] == warm["requests"]  # every one loaded: none compiled again
     assert sorted(p.relative_to(b) for p in b.rglob("*") if p.is_file()) == files  # none new
     assert (warm["r"], warm["E"]) == (cold["r"], cold["E"])
+
+
+# ----------------------------------------------------------------------------- imports
+_SMALL_SCENE = """
+name = "small"
+tolerance = 0.05
+[constraints]
+families = ["inverse_square", "clamped"]
+[[lights]]
+kind = "sphere"
+radius = 0.1
+height = 1.0
+[[receivers]]
+kind = "distribution"
+distance = [0.5, 3.0]
+n = 200
+"""
+
+_IMPORTS = r"""
+import contextlib, io, json, sys
+from attenfit.cli import main
+
+seen = {}
+for name, argv in (
+    ("families", ["families"]),
+    ("export", ["export", "yuksel", "--lang", "glsl"]),
+    ("scene", ["scene", sys.argv[1]]),
+    ("scene --out", ["scene", sys.argv[1], "--out", sys.argv[2]]),
+):
+    with contextlib.redirect_stdout(io.StringIO()):
+        code = main(argv + ["--quiet"])
+    seen[name] = (code, "matplotlib" in sys.modules)
+print(json.dumps(seen))
+"""
+
+
+def test_matplotlib_is_imported_only_when_a_figure_is_drawn(tmp_path):
+    """`families`, `export` and `scene` without --out draw nothing and never import
+    matplotlib (0.3 s or more of a fresh process); `scene --out` draws, and imports it."""
+    scene = tmp_path / "small.toml"
+    scene.write_text(_SMALL_SCENE)
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    proc = subprocess.run(
+        [sys.executable, "-c", _IMPORTS, str(scene), str(tmp_path / "out")],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    seen = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert seen == {
+        "families": [0, False],
+        "export": [0, False],
+        "scene": [0, False],
+        "scene --out": [0, True],
+    }
