@@ -312,7 +312,7 @@ def _fit_range(cls: type, start: Mapping[str, Any]) -> float | None:
 def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
     """`_fit_rows` with a count of the (family, configuration) rows done (a bar, or lines)."""
     total = len(classes) * len(sweep_cfgs)
-    with _progress.count(total, "fit: families x configurations") as bar:
+    with _progress.count(total, "fit: rows (a family on a configuration)") as bar:
         _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar)
 
 
