@@ -226,6 +226,8 @@ def build_report(
             timings["fit"] = time.perf_counter() - t
 
         findings = seed_findings(classes, configs, results, models)
+    if painter is not None:  # often the longest wait of a warm report: say so
+        say("the published figures (drawn in a second thread while the fits ran)")
     prerendered = painter.result() if painter is not None else {}  # joined before timing costs
     costs: dict[str, Any] = {}
     if cost not in (True, False, "counts"):
