@@ -49,7 +49,10 @@ def enable_persistent_cache(path: str | os.PathLike | None = None) -> Path | Non
     if not os.access(folder, os.W_OK):
         return None
     jax.config.update("jax_compilation_cache_dir", str(folder))
-    jax.config.update("jax_persistent_cache_enable_xla_caches", "none")  # keys free of `folder`
+    try:  # keys free of `folder` (a JAX without the option has no such caches either)
+        jax.config.update("jax_persistent_cache_enable_xla_caches", "none")
+    except AttributeError:
+        pass
     jax.config.update("jax_persistent_cache_min_compile_time_secs", MIN_COMPILE_SECONDS)
     jax.config.update("jax_persistent_cache_min_entry_size_bytes", 0)
     _ENABLED.append(str(folder))
