@@ -3,9 +3,11 @@
 1. `attenfit.irradiance`, jitted, on 65,536 random receivers (random normals, so a mix of
    unclipped, horizon-clipped and fully-below receivers), float32 and float64, per emitter:
    evaluations per second (median over repeats). Peers measured in the same run: the
-   point-light model `I max(0, n.l) / d^2` in JAX (the cheapest stand-in), and a numpy
-   vectorised evaluation of the sphere's clipped closed form in its published acos form
-   (Frostbite 2014 `illuminanceSphereOrDisk`), float64.
+   point-light model `I max(0, n.l) / d^2` in JAX (the cheapest stand-in), and numpy float64
+   ports: the sphere's clipped closed form in its published acos form (Frostbite 2014
+   `illuminanceSphereOrDisk`), and the disk's closed forms as attenfit writes them (the same
+   arc quadrature where the arc's closed form cancels), each branch evaluated only on the
+   receivers that take it.
 2. `attenfit.quadrature.irradiance` (surface Gauss-Legendre) against the closed forms: max
    error over 256 receivers, in units of the facing value 1/d^2, and time per receiver, per
    node count; and the capsule's own outer quadrature (`CAPSULE_NODES` per panel) against a
@@ -65,6 +67,90 @@ def _numpy_sphere_frostbite(c, r, p, n):
     return K / (np.pi * r * r)
 
 
+def _numpy_disk(c, m, r, p, n, I=1.0):
+    """Peer: the disk's closed forms (unclipped vector irradiance; clipped, the arc + chord
+    contour with the same Gauss-Legendre fallback for small rho) ported to numpy float64,
+    each branch evaluated only on the receivers that take it (boolean masks)."""
+    m = m / np.linalg.norm(m)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    dv = c - p
+    z = -dv @ m
+    nm, nd = n @ m, np.sum(n * dv, axis=1)
+    dperp = dv + z[:, None] * m
+    s2 = np.sum(dperp * dperp, axis=1)
+    w = np.sqrt(np.maximum(1 - nm * nm, 0.0))
+    behind = z <= 0
+    unclipped = ~behind & (nd >= r * w)
+    clipped = ~behind & ~(nd <= -r * w) & ~(nd >= r * w)
+    E = np.zeros(len(p))
+
+    def scaled(k):
+        lam = np.sqrt(z[k] ** 2 + s2[k] + r * r)
+        zt, rt, st2 = z[k] / lam, r / lam, s2[k] / lam**2
+        return lam, zt, rt, st2, np.sqrt(st2)
+
+    k = unclipped
+    lam, zt, rt, st2, st = scaled(k)
+    A1, A2 = zt * zt + (st - rt) ** 2, zt * zt + (st + rt) ** 2
+    S = np.sqrt(A1) * np.sqrt(A2)
+    q0 = zt * zt + rt * rt - st2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Q = np.where(q0 < 0, 4 * st2 * zt * zt / (S - q0), S + q0)
+    ndp = np.sum(n[k] * dperp[k], axis=1) / lam
+    E[k] = np.maximum((I / lam) / lam * (Q * (-nm[k]) + 2 * zt * ndp) / (S * (S + 1)), 0.0)
+
+    k = clipped
+    lam, zt, rt, st2, st = scaled(k)
+    sign = 1.0 if m[2] >= 0 else -1.0  # Duff et al.'s frame, as attenfit's
+    a = -1 / (sign + m[2])
+    b = m[0] * m[1] * a
+    u = np.array([1 + sign * m[0] * m[0] * a, sign * b, -sign * m[0]])
+    v = np.array([b, sign + m[1] * m[1] * a, -m[1]])
+    nk, dtl = n[k], dv[k] / lam[:, None]
+    beta = np.arccos(-nd[k] / (r * w[k]))
+    phin = np.arctan2(nk @ v, nk @ u)
+    A0 = rt * rt * nm[k]
+    Ac = rt * np.sum(nk * np.cross(dtl, v), axis=1)
+    As = -rt * np.sum(nk * np.cross(dtl, u), axis=1)
+    b1, b2 = 2 * rt * (dtl @ u), 2 * rt * (dtl @ v)
+    rho = 2 * rt * st
+    am = zt * zt + (st - rt) ** 2
+    J = np.zeros(len(rt))
+    an = rho >= 0.1  # attenfit's _ARC_RHO_MIN
+    rh, amn, bet = rho[an], am[an], beta[an]
+    Sarc, kk = np.sqrt(amn * (1 + rh)), np.sqrt(amn / (1 + rh))
+    cphi0, sphi0 = b1[an] / rh, b2[an] / rh
+    P = Ac[an] * cphi0 + As[an] * sphi0
+    Qs = As[an] * cphi0 - Ac[an] * sphi0
+    psim = np.mod(phin[an] - np.arctan2(b2[an], b1[an]) + np.pi, 2 * np.pi) - np.pi
+    psi1, psi2 = psim - bet, psim + bet
+    dI0 = (2 / Sarc) * (
+        np.arctan2(kk * np.sin(psi2 / 2), np.cos(psi2 / 2))
+        - np.arctan2(kk * np.sin(psi1 / 2), np.cos(psi1 / 2))
+    )
+    dIc = (2 * bet - dI0) / rh
+    d1 = amn + 2 * rh * np.cos(psi1 / 2) ** 2
+    d2 = amn + 2 * rh * np.cos(psi2 / 2) ** 2
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lr = np.where(
+            d2 < 0.5 * d1, np.log(d2 / d1), np.log1p(rh * (-2 * np.sin(psim) * np.sin(bet)) / d1)
+        )
+    J[an] = A0[an] * dI0 + P * dIc + Qs * (-lr / rh)
+    gl = ~an
+    xg, wg = np.polynomial.legendre.leggauss(32)  # attenfit's _ARC_NODES
+    phis = phin[gl, None] + beta[gl, None] * xg
+    cp, sp = np.cos(phis), np.sin(phis)
+    num = A0[gl, None] + Ac[gl, None] * cp + As[gl, None] * sp
+    J[gl] = beta[gl] * np.sum(wg * num / (1 + b1[gl, None] * cp + b2[gl, None] * sp), axis=1)
+    ca, sa = np.cos(phin + beta), np.sin(phin + beta)
+    cb, sb = np.cos(phin - beta), np.sin(phin - beta)
+    xA = dtl + rt[:, None] * (ca[:, None] * u + sa[:, None] * v)
+    xB = dtl + rt[:, None] * (cb[:, None] * u + sb[:, None] * v)
+    chord = np.arctan2(np.sum(nk * np.cross(xA, xB), axis=1), np.sum(xA * xB, axis=1))
+    E[k] = np.maximum(-(I / (np.pi * r * r)) / 2 * (J + chord), 0.0)
+    return E
+
+
 def main() -> None:
     import attenfit as af
     from attenfit._truth import _irradiance
@@ -98,20 +184,27 @@ def _run(af, _irradiance) -> None:
             print(
                 f"   {em.kind:<9}{jnp.dtype(dt).name:<9}{len(p) / t:>12.3g}{t / tp:>15.1f}x slower"
             )
-    sphere = ems[0]
-    p64, n64 = _receivers(sphere, N, 0)
-    t_np = median_seconds(
-        lambda: _numpy_sphere_frostbite(np.zeros(3), 1.0, p64, n64), repeats=REPEATS
-    )
-    t_ax = median_seconds(exact, sphere, jnp.asarray(p64), jnp.asarray(n64), repeats=REPEATS)
-    ref = np.asarray(exact(sphere, jnp.asarray(p64), jnp.asarray(n64)))
-    diff = np.max(
-        np.abs(_numpy_sphere_frostbite(np.zeros(3), 1.0, p64, n64) - ref) * np.sum(p64**2, 1)
-    )
-    print(
-        f"   peer: numpy sphere (Frostbite acos form, float64) {N / t_np:.3g} evals/s; "
-        f"attenfit is {t_np / t_ax:.1f}x faster (max |diff| {diff:.1e} of 1/d^2)"
-    )
+    peers = [
+        ("sphere", "Frostbite acos form", _numpy_sphere_frostbite),
+        ("disk", "the same closed forms, branches by masks", _numpy_disk),
+    ]
+    print(f"\n   peers: numpy float64 on the same {N} receivers, median of {REPEATS}, same run")
+    print(f"   {'emitter':<9}{'numpy evals/s':>15}{'attenfit evals/s':>18}{'attenfit/numpy':>16}"
+          f"{'max |diff| x d^2':>18}")  # fmt: skip
+    for em, (kind, form, port) in zip(ems, peers, strict=False):
+        p64, n64 = _receivers(em, N, 0)
+        c, r = np.asarray(em.reference_point(), np.float64), float(em.radius)
+        args = (c, np.asarray(em.normal, np.float64), r) if kind == "disk" else (c, r)
+        t_np = median_seconds(port, *args, p64, n64, repeats=REPEATS)
+        t_ax = median_seconds(exact, em, jnp.asarray(p64), jnp.asarray(n64), repeats=REPEATS)
+        ref = np.asarray(exact(em, jnp.asarray(p64), jnp.asarray(n64)))
+        d2 = np.sum((p64 - c) ** 2, axis=1)
+        diff = np.max(np.abs(port(*args, p64, n64) - ref) * d2)
+        print(
+            f"   {kind:<9}{N / t_np:>15.3g}{N / t_ax:>18.3g}{t_np / t_ax:>15.2f}x{diff:>18.1e}"
+            f"   ({form})"
+        )
+    print("   capsule: no numpy port (its outer integral is a quadrature with a closed-form inner)")
 
     print(
         "\n2. reference quadrature (attenfit.quadrature) vs closed form (capsule: vs attenfit.irradiance)"

@@ -155,10 +155,10 @@ def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys)
     argv += ["--no-mitsuba"]  # the witness has its own test (tests/test_witness.py)
     assert main(argv) == 0
     err = capsys.readouterr().err
-    # stderr is not a terminal here: only the summary line
-    assert (
-        err.count("\n") == 1 and err.startswith("attenfit report: wrote ") and " results, " in err
-    )
+    # stderr is not a terminal here: plain stage lines (no carriage return), then the summary
+    *stages, summary = err.splitlines()
+    assert summary.startswith("attenfit report: wrote ") and " results, " in summary
+    assert stages and all(s.startswith("attenfit report: [") for s in stages) and "\r" not in err
     for name in ("report.md", "report.json", "results.csv"):
         assert (out / name).is_file()
     pngs = sorted(p.stem for p in (out / "figures").glob("*.png"))

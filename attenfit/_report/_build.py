@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .. import _budget
+from .. import _budget, _progress
 from .._curves import Family, get_family, list_families
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._truth import emitter_from_dict
@@ -226,6 +226,8 @@ def build_report(
             timings["fit"] = time.perf_counter() - t
 
         findings = seed_findings(classes, configs, results, models)
+    if painter is not None:  # often the longest wait of a warm report: say so
+        say("the published figures (drawn in a second thread while the fits ran)")
     prerendered = painter.result() if painter is not None else {}  # joined before timing costs
     costs: dict[str, Any] = {}
     if cost not in (True, False, "counts"):
@@ -310,6 +312,13 @@ def _fit_range(cls: type, start: Mapping[str, Any]) -> float | None:
 
 
 def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
+    """`_fit_rows` with a count of the (family, configuration) rows done (a bar, or lines)."""
+    total = len(classes) * len(sweep_cfgs)
+    with _progress.count(total, "fit: rows (a family on a configuration)") as bar:
+        _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar)
+
+
+def _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar) -> None:
     """Fit every family on every sweep, in one solve per sample count (`_report_fit`).
 
     Only shape parameters are free (`shape_free`): a range is the user's budget and stays at
@@ -340,6 +349,7 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
                     results.append(
                         evaluate_row(cls.name, c, "fitted", model, note=note, store=values)
                     )
+                    bar.update()
                     continue
                 w = (
                     (c.sweep.d <= 0.5 * rg).astype(np.float64)
@@ -360,6 +370,7 @@ def _fit_families(classes, sweep_cfgs, pub, models, results, values) -> None:
             return pub[(cls.name, c.name)][0]
 
         for (cls, c, rg), out in zip(keys, outs, strict=True):
+            bar.update()
             if out is None:
                 results.append(failed_row(cls.name, c, f"fit error: {error}"))
                 continue

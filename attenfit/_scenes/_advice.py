@@ -11,7 +11,6 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import matplotlib
 import numpy as np
 
 from .._atomic import atomic_dir
@@ -329,6 +328,7 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
     Every judged receiver of every light is a point; the tolerance is a dashed line.
     Returns `(fig, ax)`; never calls `show()`.
     """
+    import matplotlib  # here, not at the top: a scene without --out draws nothing
     import matplotlib.pyplot as plt
 
     picks: list[Candidate] = []

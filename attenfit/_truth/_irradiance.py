@@ -53,10 +53,12 @@ _PI = math.pi
 CAPSULE_NODES = 64
 _CAPSULE_CHUNK = 128
 _CHUNK = 1 << 16
-#: Gauss-Legendre nodes on the disk's visible arc when rho/a is small (see `_disk_one_sided`).
+#: Gauss-Legendre nodes on the disk's visible arc when rho/a is small (see `_disk_clipped`).
 _ARC_NODES = 32
 #: Below this rho/a the disk's arc integral is done by Gauss-Legendre (analytic form cancels).
 _ARC_RHO_MIN = 0.1
+#: The disk's clipped receivers are evaluated so many at a time (`_disk_batch`).
+_FEW_CHUNK = 512
 
 
 def _gauss_legendre(n: int, dtype) -> tuple[Array, Array]:
@@ -163,9 +165,8 @@ def _frame(m: Array) -> tuple[Array, Array]:
     return u, v
 
 
-def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) -> Array:
-    """Irradiance from the face of a disk that emits along its unit normal `m`."""
-    dt = p.dtype
+def _disk_setup(c: Array, m: Array, r: Array, p: Array, n: Array) -> dict[str, Array]:
+    """The quantities every branch of the one-sided disk shares, for one receiver."""
     dv = c - p  # receiver -> centre
     z = -_dot(dv, m)  # height of the receiver above the disk plane
     nm = _dot(n, m)
@@ -186,39 +187,70 @@ def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) 
     zt, rt = zs / lam, r / lam
     st2 = s2 / (lam * lam)
     st = _safe_sqrt(st2)
+    A1 = zt * zt + (st - rt) ** 2  # = 1 - rho, without cancellation
+    rho = 2 * rt * st  # = sqrt(b1^2 + b2^2); a~ = 1
+    return dict(
+        dv=dv, nm=nm, nd=nd, dperp=dperp, w=w, behind=behind, unclipped=unclipped,
+        clipped=clipped, lam=lam, zt=zt, rt=rt, st2=st2, st=st, A1=A1, rho=rho,
+        analytic=clipped & (rho >= _ARC_RHO_MIN),
+    )  # fmt: skip
 
-    # --- unclipped: vector irradiance (docs/ground-truth.md §3.5), E = I [Q(-n.m) + 2 z n.dperp] / (S (S + a))
-    A1 = zt * zt + (st - rt) ** 2
+
+def _disk_unclipped(c, m, r, I, p, n) -> tuple[Array, Array, Array]:
+    """One receiver: the unclipped closed form where it applies (0 elsewhere), and whether
+    the receiver is clipped and whether its arc needs the quadrature (`_disk_clipped`).
+
+    Vector irradiance (docs/ground-truth.md §3.5),
+    E = I [Q(-n.m) + 2 z n.dperp] / (S (S + a)).
+    """
+    g = _disk_setup(c, m, r, p, n)
+    zt, rt, st, st2, lam = g["zt"], g["rt"], g["st"], g["st2"], g["lam"]
+    A1 = g["A1"]
     A2 = zt * zt + (st + rt) ** 2
     S = jnp.sqrt(A1) * jnp.sqrt(A2)
     q0 = zt * zt + rt * rt - st2
     qneg = q0 < 0
     Q = jnp.where(qneg, 4 * st2 * zt * zt / jnp.where(qneg, S - q0, 1.0), S + q0)
-    ndperp = _dot(n, dperp) / lam
-    E_un = (I / lam) / lam * (Q * (-nm) + 2 * zt * ndperp) / (S * (S + 1))
+    ndperp = _dot(n, g["dperp"]) / lam
+    E_un = (I / lam) / lam * (Q * (-g["nm"]) + 2 * zt * ndperp) / (S * (S + 1))
     E_un = jnp.maximum(E_un, 0.0)  # rounding below 0 when the disk lies in the horizon plane
+    E = jnp.where(g["unclipped"] & ~g["behind"], E_un, 0.0)
+    return E, g["clipped"], g["clipped"] & ~g["analytic"]
 
-    # --- clipped: arc + chord contour (docs/ground-truth.md §3.6), E = -(L/2) (J_arc + J_chord)
+
+def _disk_clipped(c, m, r, I, p, n, arc_quadrature: bool) -> tuple[Array, Array]:
+    """One clipped receiver: the arc integral and the chord's (the Stokes/Sparrow contour,
+    docs/ground-truth.md §3.6).
+
+    The arc in closed form where rho >= `_ARC_RHO_MIN`; below (the closed form cancels,
+    and the integrand is nearly a trigonometric polynomial) by `_ARC_NODES` Gauss-Legendre
+    nodes, which cost as much as the rest: computed only when `arc_quadrature`, else 0.
+    """
+    g = _disk_setup(c, m, r, p, n)
+    clipped, analytic, rt = g["clipped"], g["analytic"], g["rt"]
     u, v = _frame(m)
-    dtl = jnp.where(behind, -m, dv / lam)  # scaled receiver -> centre (safe when behind)
+    dtl = jnp.where(g["behind"], -m, g["dv"] / g["lam"])  # scaled receiver -> centre (safe)
     nu, nv = _dot(n, u), _dot(n, v)
-    ws = jnp.where(clipped, w, 1.0)
-    xc = jnp.where(clipped, -nd / (r * ws), 0.0)
+    ws = jnp.where(clipped, g["w"], 1.0)
+    xc = jnp.where(clipped, -g["nd"] / (r * ws), 0.0)
     beta = jnp.arccos(xc)
     phin = jnp.arctan2(jnp.where(clipped, nv, 0.0), jnp.where(clipped, nu, 1.0))
-    A0 = rt * rt * nm
+    A0 = rt * rt * g["nm"]
     Ac = rt * _dot(n, jnp.cross(dtl, v))
     As = -rt * _dot(n, jnp.cross(dtl, u))
     b1 = 2 * rt * _dot(dtl, u)
     b2 = 2 * rt * _dot(dtl, v)
-    rho = 2 * rt * st  # = sqrt(b1^2 + b2^2); a~ = 1
-    analytic = clipped & (rho >= _ARC_RHO_MIN)
+    if arc_quadrature:
+        xg, wg = _gauss_legendre(_ARC_NODES, p.dtype)
+        phis = phin + beta * xg
+        cp, sp = jnp.cos(phis), jnp.sin(phis)
+        J_gl = beta * jnp.sum(wg * (A0 + Ac * cp + As * sp) / (1 + b1 * cp + b2 * sp))
+        return jnp.where(analytic, 0.0, J_gl), jnp.zeros_like(J_gl)
     # analytic branch (needs rho bounded away from 0)
     b1s = jnp.where(analytic, b1, 1.0)
     b2s = jnp.where(analytic, b2, 0.0)
-    rhos = jnp.where(analytic, rho, 1.0)
-    am = A1  # 1 - rho = z~^2 + (s~ - r~)^2, without cancellation
-    am = jnp.where(analytic, am, 0.5)
+    rhos = jnp.where(analytic, g["rho"], 1.0)
+    am = jnp.where(analytic, g["A1"], 0.5)  # 1 - rho = z~^2 + (s~ - r~)^2, without cancellation
     ap = 1 + rhos
     Sarc = jnp.sqrt(am * ap)
     k = jnp.sqrt(am / ap)
@@ -242,25 +274,77 @@ def _disk_one_sided(c: Array, m: Array, r: Array, I: Array, p: Array, n: Array) 
     d2 = am + 2 * rhos * jnp.cos(psi2 / 2) ** 2
     log_ratio = jnp.where(d2 < 0.5 * d1, jnp.log(d2 / d1), jnp.log1p(rhos * dcos / d1))
     dIs = -log_ratio / rhos
-    J_an = A0 * dI0 + P * dIc + Qs * dIs
-    # quadrature branch (rho small: the integrand is nearly a trigonometric polynomial)
-    xg, wg = _gauss_legendre(_ARC_NODES, dt)
-    phis = phin + beta * xg
-    cp, sp = jnp.cos(phis), jnp.sin(phis)
-    J_gl = beta * jnp.sum(wg * (A0 + Ac * cp + As * sp) / (1 + b1 * cp + b2 * sp))
-    J_arc = jnp.where(analytic, J_an, J_gl)
+    J_an = jnp.where(analytic, A0 * dI0 + P * dIc + Qs * dIs, 0.0)
     xA = dtl + rt * (u * jnp.cos(phin + beta) + v * jnp.sin(phin + beta))
     xB = dtl + rt * (u * jnp.cos(phin - beta) + v * jnp.sin(phin - beta))
     J_chord = jnp.arctan2(_dot(n, jnp.cross(xA, xB)), _dot(xA, xB))
+    return J_an, J_chord
+
+
+def _disk_batch(c, m, r, I, p: Array, n: Array) -> Array:
+    """Irradiance from the face of a disk that emits along its unit normal `m`, at receivers
+    `p` and unit normals `n` (`[N, 3]`): the unclipped closed form for every receiver, the
+    clipped contour only for the clipped ones, its arc quadrature only where the arc's closed
+    form cancels.
+
+    The clipped receivers are gathered to the front, those that need the quadrature first
+    (positions from running counts, static sizes), and evaluated `_FEW_CHUNK` at a time in a
+    `lax.map`; a `lax.cond` skips a chunk past the last clipped receiver, and the quadrature
+    of a chunk past the last that needs it. So the cost follows the number of receivers in
+    each branch, and everything still traces, vmaps (a batched `cond` evaluates both
+    branches: the cost of evaluating every branch everywhere, the same values) and
+    differentiates (padding rows repeat a real receiver and are dropped, with a zero
+    cotangent).
+    """
+    E_un, clipped, quad = jax.vmap(lambda p, n: _disk_unclipped(c, m, r, I, p, n))(p, n)
+    N = p.shape[0]
+    size = min(_FEW_CHUNK, N)
+    chunks = -(-N // size)
+    n_quad = jnp.sum(quad)
+    n_clip = jnp.sum(clipped)
+    rest = clipped & ~quad
+    pos = jnp.where(
+        quad,
+        jnp.cumsum(quad) - 1,
+        jnp.where(rest, n_quad + jnp.cumsum(rest) - 1, chunks * size),
+    )
+    idx = jnp.full(chunks * size, N).at[pos].set(jnp.arange(N), mode="drop")
+    pg = jnp.take(p, idx, axis=0, mode="clip").reshape(chunks, size, 3)
+    ng = jnp.take(n, idx, axis=0, mode="clip").reshape(chunks, size, 3)
+
+    def contour(quadrature: bool):
+        return jax.vmap(lambda p, n: _disk_clipped(c, m, r, I, p, n, quadrature))
+
+    def chunk(args):
+        k, pc, nc = args
+
+        def clipped_terms(pc, nc):
+            J_an, J_chord = contour(False)(pc, nc)
+            J_gl = jax.lax.cond(
+                k * size < n_quad, lambda: contour(True)(pc, nc)[0], lambda: jnp.zeros_like(J_an)
+            )
+            return J_an + J_gl, J_chord
+
+        return jax.lax.cond(
+            k * size < n_clip,
+            clipped_terms,
+            lambda pc, nc: (jnp.zeros(size, p.dtype), jnp.zeros(size, p.dtype)),
+            pc,
+            nc,
+        )
+
+    J_arc, J_chord = (
+        jnp.zeros(N, p.dtype).at[idx].set(o.reshape(-1), mode="drop")
+        for o in jax.lax.map(chunk, (jnp.arange(chunks), pg, ng))
+    )
     E_clip = jnp.maximum(-(I / (_PI * r * r)) / 2 * (J_arc + J_chord), 0.0)
+    return jnp.where(clipped, E_clip, E_un)
 
-    return jnp.where(unclipped & ~behind, E_un, jnp.where(clipped, E_clip, 0.0))
 
-
-def _disk_one(c, m, r, I, p, n, *, two_sided: bool) -> Array:
-    E = _disk_one_sided(c, m, r, I, p, n)
+def _disk(c, m, r, I, p: Array, n: Array, *, two_sided: bool) -> Array:
+    E = _disk_batch(c, m, r, I, p, n)
     if two_sided:
-        E = E + _disk_one_sided(c, -m, r, I, p, n)
+        E = E + _disk_batch(c, -m, r, I, p, n)
     return E
 
 
@@ -423,7 +507,7 @@ def _kernel(
         )
         m = m / jnp.linalg.norm(m)
         ts = emitter.two_sided
-        return lambda p, n: _disk_one(c, m, r, I, p, n, two_sided=ts)
+        return lambda p, n: _disk(c, m, r, I, p, n, two_sided=ts)  # a batch [N, 3]
     if isinstance(emitter, CapsuleEmitter):
         a, b, r, I = (cast(x) for x in (emitter.a, emitter.b, emitter.radius, emitter.intensity))
         return lambda p, n: _capsule_one(a, b, r, I, p, n, nodes=capsule_nodes)
@@ -470,7 +554,19 @@ def _evaluate(
     shape = p.shape[:-1]
     kern = _kernel(emitter, p.dtype, capsule_nodes)
     pf, nf = p.reshape(-1, 3), n.reshape(-1, 3)
-    if isinstance(emitter, CapsuleEmitter):
+    if isinstance(emitter, DiskEmitter):  # a kernel of batches: it selects its branches
+        N = pf.shape[0]
+        if N > _CHUNK:  # flat memory, as below: whole chunks, then the rest
+            whole = N // _CHUNK * _CHUNK
+            E = jax.lax.map(
+                lambda x: kern(*x),
+                (pf[:whole].reshape(-1, _CHUNK, 3), nf[:whole].reshape(-1, _CHUNK, 3)),
+            ).reshape(-1)
+            if whole < N:
+                E = jnp.concatenate([E, kern(pf[whole:], nf[whole:])])
+        else:
+            E = kern(pf, nf)
+    elif isinstance(emitter, CapsuleEmitter):
         # chunks of receivers keep the (receivers x nodes) intermediates in cache
         E = jax.lax.map(lambda x: kern(*x), (pf, nf), batch_size=_CAPSULE_CHUNK)
     elif pf.shape[0] > _CHUNK:
