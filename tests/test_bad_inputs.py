@@ -14,7 +14,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import re
 import subprocess
 import sys
 from collections.abc import Callable
@@ -23,6 +22,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from _stderr import STAGE_LINE
 
 import attenfit as af
 from attenfit import (
@@ -954,13 +954,10 @@ API_CASES = [
 ]
 
 
-_STAGE_LINE = re.compile(r"attenfit [a-z]+: \[ *\d+\.\d s\] ")
-
-
 def _one_line(text: str) -> str:
     """The one line of `text` that is not a progress stage line (`attenfit fit: [  0.8 s] ...`,
     written wherever stderr goes)."""
-    lines = [ln for ln in text.strip("\n").splitlines() if not _STAGE_LINE.match(ln)]
+    lines = [ln for ln in text.strip("\n").splitlines() if not STAGE_LINE.match(ln)]
     assert len(lines) == 1, f"expected one line, got {len(lines)}:\n{text}"
     return lines[0]
 

@@ -29,6 +29,8 @@ import pytest
 
 mi = pytest.importorskip("mitsuba")
 
+from _stderr import without_progress  # noqa: E402
+
 import attenfit  # noqa: E402
 from attenfit import (  # noqa: E402  # noqa: E402
     BadValueError,
@@ -444,7 +446,8 @@ def test_cli_gen_writes_a_dataset_matching_truth(tmp_path, capsys):
 
 def test_cli_gen_bad_radius(capsys):
     assert main(["gen", "--emitter", "sphere", "--radius", "0", "--out", "x.npz"]) == 2
-    assert capsys.readouterr().err.strip() == "attenfit: error: --radius must be > 0, got 0.0"
+    err = without_progress(capsys.readouterr().err.strip())
+    assert err == "attenfit: error: --radius must be > 0, got 0.0"
 
 
 # ----------------------------------------------------------------------------- slow sweep

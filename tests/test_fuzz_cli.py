@@ -15,11 +15,11 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import tempfile
 from pathlib import Path
 
 import numpy as np
+from _stderr import without_progress
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -28,7 +28,6 @@ from attenfit.cli import main
 
 SCALE = int(os.environ.get("ATTENFIT_FUZZ_SCALE", "1"))
 WORK = Path(tempfile.mkdtemp(prefix="attenfit-cli-fuzz-"))
-_STAGE_LINE = re.compile(r"attenfit [a-z]+: \[ *\d+\.\d s\] ")
 FAST = settings(max_examples=60 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
 SLOW = settings(max_examples=12 * SCALE, deadline=None, suppress_health_check=list(HealthCheck))
 
@@ -106,7 +105,7 @@ def test_refused_before_work(capsys, data):
         err = capsys.readouterr().err.strip()
         assert code == 2, f"exit {code} for {argv!r}: {err}"
         # one line, after any progress stage line (`attenfit fit: [  0.0 s] the data`)
-        err = "\n".join(ln for ln in err.splitlines() if not _STAGE_LINE.match(ln))
+        err = without_progress(err)
         assert "internal error" not in err and "\n" not in err
     else:
         _run(argv, capsys)

@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _stderr import without_progress
 
 import attenfit as af
 from attenfit import _atomic, _budget, _input
@@ -36,9 +37,9 @@ REPO = Path(__file__).resolve().parent.parent
 
 
 def _cli(capsys, *argv: str) -> tuple[int, str]:
+    """The exit code and stderr, its progress lines left out (`_stderr`)."""
     code = main([str(a) for a in argv])
-    err = capsys.readouterr().err.strip()
-    return code, err
+    return code, without_progress(capsys.readouterr().err.strip())
 
 
 def _exit2(capsys, *argv: str, fragment: str) -> None:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _stderr import without_progress
 
 import attenfit as af
 from attenfit import _cache
@@ -38,7 +39,7 @@ REPO = Path(__file__).resolve().parent.parent
 def _cli(capsys, *argv) -> tuple[int, str, str]:
     code = main([str(a) if isinstance(a, Path) else a for a in argv])
     out = capsys.readouterr()
-    return code, out.out, out.err.strip()
+    return code, out.out, without_progress(out.err.strip())
 
 
 def _exit2(capsys, *argv, fragment: str) -> str:
