@@ -49,6 +49,7 @@ LIMITS: dict[str | None, int] = {
     "families": 1 << 20,
     "compilers": 64 << 10,
     "compiled": 64 << 10,
+    "worst": 16 << 10,
     "solve": 64 << 20,
     None: 64 << 20,
 }
@@ -271,6 +272,20 @@ def _model_row(row: Any) -> str | None:
     return None
 
 
+def _worst_shape(found: Any) -> str | None:
+    """A decision table's worst case (`_report._verify.Found`): null, or its error and place."""
+    if found is None:
+        return None
+    if not (
+        isinstance(found, dict)
+        and _number(found.get("error"))
+        and found["error"] >= 0
+        and isinstance(found.get("where"), str)
+    ):
+        return "no worst case"
+    return None
+
+
 def _compilers_shape(versions: Any) -> str | None:
     """The compilers' versions: tool name -> version text or null."""
     if not isinstance(versions, dict) or not all(
@@ -300,6 +315,7 @@ _SHAPES: dict[str, Callable[[Any], str | None]] = {
     "families": _families_shape,
     "compilers": _compilers_shape,
     "compiled": _compiled_shape,
+    "worst": _worst_shape,
 }
 
 

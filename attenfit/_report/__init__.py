@@ -1,4 +1,4 @@
-"""Stage 5, the report: metrics of an approximation's error (`_metrics`), plots
+"""Stage 6, the report: metrics of an approximation's error (`_metrics`), plots
 (`_plots`, `_cost_plot`), the configurations a report compares on (`_configs`), published
 parameters (`_published`), the result rows (`_evaluate`), the combined fit
 (`_fit_all`), findings (`_findings`), and the `Report` itself (`_document`, `_build`).

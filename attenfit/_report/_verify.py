@@ -9,14 +9,35 @@ model only once `attenfit._judge.worst_case` has searched the band's whole recei
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
+from .. import _cache
 from .._errors import BadValueError
-from .._judge import WorstCase, typical_error, worst_case
+from .._judge import worst_case
 from ._candidates import Candidate
 
-__all__ = ["Verifier"]
+__all__ = ["Found", "Verifier"]
+
+
+@dataclasses.dataclass(frozen=True)
+class Found:
+    """A model's worst case on a band as the table quotes it: the error and where it lies.
+
+    Kept in attenfit's cache (kind "worst", keyed by the model's class and parameter values,
+    the light and the band, for this code version), so a warm report searches nothing again.
+    """
+
+    error: float
+    place: str
+
+    def where(self) -> str:
+        return self.place
+
 
 #: How many of the closest candidates by sample have their worst case searched for "closest".
 CLOSEST_SEARCHED = 3
@@ -28,29 +49,45 @@ class Verifier:
     def __init__(self, cfg: Any, progress: Callable[[str], None] | None = None):
         self.cfg = cfg
         self.progress = progress
-        self._memo: dict[tuple[str, str, str], WorstCase | None] = {}
+        self._memo: dict[tuple[str, str, str], Found | None] = {}
 
-    def worst(self, c: Candidate, band: str) -> WorstCase | None:
+    def worst(self, c: Candidate, band: str) -> Found | None:
         """`c`'s worst case on `band` of the configuration's light (None: it cannot be judged
         there, a window whose range/2 ends inside the band, or no model to build)."""
         key = (c.label, c.params, band)
         if key not in self._memo:
-            if self.progress is not None:
-                self.progress(f"worst case: {c.label} on {self.cfg.name}, {band}")
             model = c.build() if c.build is not None else None
-            try:
-                self._memo[key] = (
-                    None
-                    if model is None
-                    else worst_case(model, self.cfg.emitter, band, typical_n=0)
-                )
-            except BadValueError:
-                self._memo[key] = None
+            self._memo[key] = None if model is None else self._search(model, c.label, band)
         return self._memo[key]
+
+    def _search(self, model: Any, label: str, band: str) -> Found | None:
+        key = json.dumps(
+            {
+                "model": type(model).__name__,
+                "params": {k: np.asarray(v).tolist() for k, v in model.params().items()},
+                "light": self.cfg.emitter.to_dict(),
+                "band": band,
+            },
+            sort_keys=True,
+        )
+        cached = _cache.read("worst", key)
+        if cached is not None:
+            got = json.loads(cached)
+            return None if got is None else Found(got["error"], got["where"])
+        if self.progress is not None:
+            self.progress(f"worst case: {label} on {self.cfg.name}, {band}")
+        try:
+            w = worst_case(model, self.cfg.emitter, band, typical_n=0)
+            found = Found(float(w.error), w.where())
+        except BadValueError:
+            found = None
+        entry = None if found is None else {"error": found.error, "where": found.place}
+        _cache.write("worst", key, json.dumps(entry).encode())
+        return found
 
     def first_holding(
         self, ranked: Sequence[Any], band: str, tol: float
-    ) -> tuple[Candidate, WorstCase] | None:
+    ) -> tuple[Candidate, Found] | None:
         """The first of `ranked` (contenders, cheapest first) whose worst case is within `tol`."""
         for contender in ranked:
             w = self.worst(contender.item, band)
@@ -60,16 +97,8 @@ class Verifier:
 
     def closest(
         self, ranked_by_error: Sequence[Candidate], band: str
-    ) -> tuple[Candidate, WorstCase] | None:
+    ) -> tuple[Candidate, Found] | None:
         """The smallest worst case among the `CLOSEST_SEARCHED` closest candidates by sample."""
         found = [(c, self.worst(c, band)) for c in ranked_by_error[:CLOSEST_SEARCHED]]
         found = [(c, w) for c, w in found if w is not None]
         return min(found, key=lambda cw: (cw[1].error, cw[0].cost or 0.0)) if found else None
-
-    def typical(self, c: Candidate, band: str) -> float | None:
-        """The 95th percentile of `c`'s |error| over random receivers of the band."""
-        model = c.build() if c.build is not None else None
-        try:
-            return None if model is None else typical_error(model, self.cfg.emitter, band)
-        except BadValueError:
-            return None

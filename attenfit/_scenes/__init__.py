@@ -1,4 +1,4 @@
-"""Stage 6, scenes: a scene file (`_toml`) read into a `Scene` (`_scene`, `_types`), its
+"""Stage 7, scenes: a scene file (`_toml`) read into a `Scene` (`_scene`, `_types`), its
 ground truth at exactly its receivers (`_lighting`), every family fitted there (`_light_fits`)
 and the cheapest within its tolerance recommended (`_recommend`, `_advice`). USD and
 glTF files (`_usd`, `_gltf`, `_sample`, `_files`) are answered per light for an engine
