@@ -83,6 +83,11 @@ _RISE = 1e-13
 _FD = 1e-6
 
 
+def _len(x_over_r: float) -> str:
+    """A length in light radii for `WorstCase.where`: "~0 r" below 1e-6 r."""
+    return "~0 r" if abs(x_over_r) < 1e-6 else f"{x_over_r:.3g} r"
+
+
 @dataclasses.dataclass(frozen=True)
 class WorstCase:
     """A model's largest |error| on a band, and where it lies.
@@ -137,13 +142,15 @@ class WorstCase:
         return "tilted" if c > 0 else "turned away"
 
     def where(self) -> str:
-        """Where the worst case lies, in one phrase."""
+        """Where the worst case lies, in one phrase, to the digits a search can vouch for: a
+        length below 1e-6 r is "~0" (contact, the disk's plane), as is |n.l| below 1e-6."""
         pos = ""
         if self.light == "disk" and self.receivers != "facing":
-            pos = f", {self.rho_over_r:.3g} r off the axis, {self.z_over_r:.3g} r in front"
+            pos = f", {_len(self.rho_over_r)} off the axis, {_len(self.z_over_r)} in front"
+        nl = "~0" if abs(self.n_dot_l) < 1e-6 else f"{self.n_dot_l:.3g}"
         return (
             f"on the {SET_LABELS[self.receivers]} at d = {self.d_over_r:.4g} r "
-            f"(gap {self.gap_over_r:.3g} r{pos}), n.l = {self.n_dot_l:.3g}, "
+            f"(gap {_len(self.gap_over_r)}{pos}), n.l = {nl}, "
             f"{self.orientation()}" + (", at the edge of the receivers judged" if self.edge else "")
         )
 
