@@ -59,5 +59,7 @@ def test_the_display_figure_draws_truth_models_and_stops():
     _, axes = plot_display_models(truth, {"half": truth / 2}, (-1, 1, -1, 1), unit="r")
     assert axes.shape == (2, 2)
     assert "max 1 stops" in axes[1, 1].get_title()
+    _, axes = plot_display_models(truth, {"same": truth * (1 + 1e-9)}, (-1, 1, -1, 1))
+    assert "max < 0.001 stops" in axes[1, 1].get_title()
     shown = axes[0, 1].images[0].get_array()
     assert np.all((shown >= 0) & (shown <= 1))

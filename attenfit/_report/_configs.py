@@ -78,6 +78,10 @@ class Plane:
     description: str
     truth_label: str = "truth (exact)"
     E_exact: np.ndarray | None = None  # the exact image when E is a Monte Carlo one
+    #: The pixels' receivers (px*px, 3) where the image is attenfit's own (an area model's
+    #: image is drawn at them); None for a dataset's image.
+    points: np.ndarray | None = None
+    normals: np.ndarray | None = None
 
 
 @dataclasses.dataclass
@@ -273,6 +277,8 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
             f"{what}; image {px} x {px} over a {2 * half:.3g} m square; energy over a disc of "
             f"radius {rho_max:.3g} m ({RADIAL_N} samples along a ray)"
         ),
+        points=plane_p.reshape(-1, 3),
+        normals=np.broadcast_to(-axis, (px * px, 3)),
     )
 
     def gap(pts: np.ndarray, dd: np.ndarray) -> np.ndarray:

@@ -134,7 +134,8 @@ def plot_display_models(
             im = ax.imshow(s, origin="lower", extent=extent, cmap="RdBu_r",
                            vmin=-STOPS_RANGE, vmax=STOPS_RANGE)  # fmt: skip
             worst = float(np.nanmax(np.abs(stops(img, t))))
-            ax.set_title(f"{label}: max {worst:.2g} stops", fontsize=8)
+            most = f"{worst:.2g} stops" if worst >= 1e-3 else "< 0.001 stops"
+            ax.set_title(f"{label}:\nmax {most}", fontsize=8)
             ax.grid(False)
             ax.set_xlabel(f"x / {unit}" if unit != "m" else "x (m)")
         if im is not None:

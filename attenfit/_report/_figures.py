@@ -16,6 +16,7 @@ from .._curves import get_family
 from . import _plots as plots
 from ._cost_plot import plot_cost_vs_error
 from ._display import plot_display_models
+from ._metrics import GAP_BAND_LABELS
 
 WINDOWED = ("smooth", "hard")
 
@@ -158,17 +159,48 @@ def _plane_errors(report, cfg):
     return fig
 
 
+def _decided(report, cfg) -> dict[str, np.ndarray]:
+    """The models the decision table names for `cfg`'s light, one per band (the one it names
+    at the tightest tolerance), as images of its plane."""
+    from .._curves import get_area_model
+    from .._truth import area_irradiance
+
+    pl = cfg.plane
+    out: dict[str, np.ndarray] = {}
+    if pl.points is None:
+        return out
+    seen: set[str] = set()
+    for e in report.decisions():
+        if e["config"] != cfg.name or e["model"] is None or e["band"] in seen:
+            continue
+        seen.add(e["band"])
+        label = f"{e['model']} ({GAP_BAND_LABELS[e['band']]}, {e['tolerance']:.0%})"
+        if any(k.startswith(f"{e['model']} (") for k in out):
+            continue
+        if e.get("model_kind") == "area model":
+            E = area_irradiance(get_area_model(e["model"])(), cfg.emitter, pl.points, pl.normals)
+            out[label] = np.asarray(E, dtype=np.float64).reshape(pl.E.shape)
+        else:
+            v = _vals(report, e["model"], cfg, e["mode"], "plane")
+            if v is not None:
+                out[label] = pl.weight * v
+    return out
+
+
 def _side_by_side(report, cfg):
-    """The truth once and three published models as displayed (one exposure), and their
-    errors in stops (`_display`)."""
+    """The truth once, the decision's models for this light (one per band) and published
+    curves beside them, as displayed (one exposure), and their errors in stops (`_display`)."""
     pl = cfg.plane
     models: dict[str, np.ndarray] = {}
     truth, label = pl.E, pl.truth_label
     if pl.E_exact is not None:  # a Monte Carlo image: the exact one is a model beside it
         models["exact (attenfit.irradiance)"] = pl.E_exact
+    models.update(_decided(report, cfg))
     for fam in ("inverse_square", "yuksel_adhoc", "yuksel", "unreal_window", "madams_cutoff"):
-        if len(models) >= 3:
+        if len(models) >= 4:
             break
+        if any(k.startswith(f"{fam} (") for k in models):
+            continue  # the decision names it already
         v = _vals(report, fam, cfg, "published", "plane")
         if v is not None:
             models[f"{fam} (published)"] = pl.weight * v
@@ -287,9 +319,14 @@ def figure_jobs(report, *, published_only: bool = False):
             jobs.append(
                 (cfg, f"{cfg.name}_plane_errors", lambda cfg=cfg: _plane_errors(report, cfg))
             )
-            jobs.append(
-                (cfg, f"{cfg.name}_plane_side_by_side", lambda cfg=cfg: _side_by_side(report, cfg))
-            )
+            if not published_only:  # it shows the decision's models: after the fits
+                jobs.append(
+                    (
+                        cfg,
+                        f"{cfg.name}_plane_side_by_side",
+                        lambda cfg=cfg: _side_by_side(report, cfg),
+                    )
+                )
     if not published_only:
         jobs.append((None, "cost_vs_error", lambda: _cost_vs_error(report)))
     return jobs
