@@ -8,6 +8,7 @@ scene stage decide through it.
 from ._rank import Contender as Contender
 from ._rank import Ranking as Ranking
 from ._rank import rank as rank
+from ._receivers import GAP_BAND_LABELS as GAP_BAND_LABELS
 from ._receivers import GAP_BANDS as GAP_BANDS
 from ._worst import WorstCase as WorstCase
 from ._worst import receiver_error as receiver_error

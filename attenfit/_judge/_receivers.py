@@ -57,7 +57,8 @@ __all__ = [
 ]
 
 #: The decision table's bands on the gap from the light's surface, in units of r (the
-#: report's `_metrics.GAP_BANDS`): contact to r, r to 10 r, beyond 10 r (to `FAR_LIMIT`).
+#: report's `_metrics.GAP_BANDS` are these): contact to r, r to 10 r, beyond 10 r (to
+#: `FAR_LIMIT`).
 GAP_BANDS: dict[str, tuple[float, float]] = {
     "contact": (0.0, 1.0),
     "near": (1.0, 10.0),

@@ -23,6 +23,7 @@ from typing import Any
 import numpy as np
 from jaxtyping import ArrayLike
 
+from .. import _judge
 from .._errors import BadValueError
 
 #: The distance bands, as (low, high) in units of the light's radius r: near is d < r,
@@ -35,18 +36,11 @@ BANDS: Mapping[str, tuple[float, float]] = {
 
 
 #: The bands of the decision table, on the distance from the light's surface (`gap`, d - r
-#: for a sphere, d for a disk) in units of r: contact to r, r to 10 r, beyond 10 r.
-GAP_BANDS: Mapping[str, tuple[float, float]] = {
-    "contact": (0.0, 1.0),
-    "near": (1.0, 10.0),
-    "far": (10.0, math.inf),
-}
+#: for a sphere, d for a disk) in units of r: contact to r, r to 10 r, beyond 10 r; defined
+#: once, with the receiver spaces the worst case is searched in (`attenfit._judge`).
+GAP_BANDS: Mapping[str, tuple[float, float]] = _judge.GAP_BANDS
 #: How the decision table names each of `GAP_BANDS`.
-GAP_BAND_LABELS: Mapping[str, str] = {
-    "contact": "contact to r",
-    "near": "r to 10 r",
-    "far": "beyond 10 r",
-}
+GAP_BAND_LABELS: Mapping[str, str] = _judge.GAP_BAND_LABELS
 
 
 def receiver_errors(

@@ -194,6 +194,11 @@ class AbstractEmitter(eqx.Module):
     def reference_point(self) -> Array:
         """The light's centre (capsule: the midpoint of its segment)."""
 
+    def exact_kernel(self, dtype: Any) -> Any:
+        """`(p, n) -> E` at one receiver, for a shape whose exact irradiance lives with its
+        class (the rectangle, `_rect`); None for those `_irradiance` holds."""
+        return None
+
 
 class SphereEmitter(AbstractEmitter):
     """A Lambertian sphere of centre `center` (m), radius `radius` (m), intensity `intensity`.

@@ -44,7 +44,6 @@ from ._emitters import (
     SphereEmitter,
     _receivers,
 )
-from ._rect import RectEmitter, rect_kernel
 
 __all__ = ["irradiance"]
 
@@ -511,8 +510,9 @@ def _kernel(
     if isinstance(emitter, CapsuleEmitter):
         a, b, r, I = (cast(x) for x in (emitter.a, emitter.b, emitter.radius, emitter.intensity))
         return lambda p, n: _capsule_one(a, b, r, I, p, n, nodes=capsule_nodes)
-    if isinstance(emitter, RectEmitter):
-        return rect_kernel(emitter, dtype)
+    own = emitter.exact_kernel(dtype)
+    if own is not None:
+        return own
     raise BadTypeError(
         f"emitter must be a SphereEmitter, DiskEmitter or CapsuleEmitter, got {type(emitter).__name__}"
     )

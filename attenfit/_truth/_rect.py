@@ -43,14 +43,12 @@ from ._emitters import (
     _safe_norm,
     _unit,
 )
+from ._irradiance import _one_minus_atan_ratio
 
 __all__ = ["RectEmitter", "rect_irradiance_one"]
 
-_SERIES_AT = 0.3
 #: Beyond this many half-diagonals squared from the centre, the far-field split is summed.
 _FAR = 16.0
-#: (atan(x) - x) / x = -x^2 (1/3 - x^2/5 + x^4/7 - ...): 14 terms are exact below 0.3
-_ATAN_TAIL = tuple((-1.0) ** (k + 1) / (2 * k + 3) for k in range(14))
 
 
 class RectEmitter(AbstractEmitter):
@@ -109,6 +107,9 @@ class RectEmitter(AbstractEmitter):
     def reference_point(self) -> Array:
         return self.center
 
+    def exact_kernel(self, dtype: Any) -> Any:
+        return rect_kernel(self, dtype)
+
     def point_light(self, points, normals):
         """Distance to the centre and `I * max(0, cos_e) * max(0, n.l)` (as a one-sided disk)."""
         p, n = _receivers(points, normals)
@@ -134,18 +135,6 @@ class RectEmitter(AbstractEmitter):
 def _offsets(u: Array, v: Array, hw: Array, hh: Array) -> Float[Array, "4 3"]:
     signs = jnp.asarray([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]], u.dtype)
     return signs[:, :1] * (hw * u)[None, :] + signs[:, 1:] * (hh * v)[None, :]
-
-
-def _atan_ratio_minus_one(x: Array) -> Array:
-    """`atan(x)/x - 1` for x >= 0, by its series below 0.3 (where the difference cancels)."""
-    near = x < _SERIES_AT
-    xs = jnp.where(near, x, jnp.zeros_like(x))
-    x2 = xs * xs
-    acc = jnp.zeros_like(x) + _ATAN_TAIL[-1]
-    for coefficient in reversed(_ATAN_TAIL[:-1]):
-        acc = coefficient + x2 * acc
-    far = jnp.where(near, jnp.ones_like(x), x)
-    return jnp.where(near, x2 * acc, jnp.arctan(far) / far - 1)
 
 
 def _clip(e: Array, h: Array) -> tuple[Array, Array]:
@@ -187,7 +176,7 @@ def rect_irradiance_one(
     c_safe = jnp.where(pos, dot_ab, jnp.ones_like(dot_ab))
     x = s / c_safe
     # G - 1/|q|^2 where a_i . a_j > 0: (1/c - 1/|q|^2) + (atan(x)/x - 1)/c
-    g_pos = (dq / c_safe) / q2 + _atan_ratio_minus_one(x) / c_safe  # no c q^2: float32 overflows
+    g_pos = (dq / c_safe) / q2 - _one_minus_atan_ratio(x) / c_safe  # no c q^2: float32 overflows
     s_safe = jnp.where(s > 0, s, jnp.ones_like(s))
     g_neg = jnp.where(s > 0, jnp.arctan2(s, dot_ab) / s_safe, jnp.zeros_like(s)) - 1 / q2
     dg = jnp.where(pos, g_pos, g_neg)
@@ -201,7 +190,7 @@ def rect_irradiance_one(
     return jnp.where(front & (k >= 3), E, jnp.zeros_like(E))
 
 
-def rect_kernel(emitter: RectEmitter, dtype) -> Any:
+def rect_kernel(emitter: RectEmitter, dtype: Any) -> Any:
     """`(p, n) -> E` for one receiver of `emitter`, in `dtype`."""
 
     def cast(x):
