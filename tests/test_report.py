@@ -145,7 +145,11 @@ def test_tables_and_json_are_complete(report):
         "window_unreal_window_energy_dropped",
     }
     summary = report.summary_markdown()
-    assert summary.count("\n| `") == len(FAMILIES)
+    # a row per family, then one per area model of the lights (the decision's other class)
+    from attenfit import list_area_models  # all but the point light, which any light has
+
+    assert summary.count("\n| `") == len(FAMILIES) + len(list_area_models()) - 1
+    assert "| `vector_disk` (area model) | " in summary
 
 
 def test_cli_report_writes_every_file_and_refuses_to_overwrite(tmp_path, capsys):

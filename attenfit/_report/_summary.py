@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from ._area_candidates import area_candidates
 from ._decide import SET_LABELS, SETS
 from ._markdown import cell_error, fmt_num, fmt_pct, md_row
 
@@ -60,6 +61,29 @@ def _why_worse(fam: str, cfg: str, s: str, pub, fit) -> str:
     )
 
 
+def _area_rows(report, lights: list, others: list) -> list[list[str]]:
+    """A row per area model: its largest |error| on each receiver set of the lights it is
+    written for (`_area_candidates`, the same receivers and errors as the families')."""
+    per = {c.name: {a.model: a for a in area_candidates(c, report)} for c in lights}
+    rows = []
+    for name in dict.fromkeys(n for found in per.values() for n in found):
+        cost = next(found[name].cost for found in per.values() if name in found)
+        row = [f"`{name}` (area model)", fmt_num(cost, digits=3)]
+        for c in lights:
+            a = per[c.name].get(name)
+            for s in SETS:
+                values = (
+                    []
+                    if a is None
+                    else [v for v in a.set_errors.get(s, {}).values() if v is not None]
+                )
+                row.append(fmt_pct(max(values)) if values else "—")
+            if c.plane is not None and c.plane.rho is not None:
+                row.append("—")
+        rows.append(row + ["—"] * len(others))
+    return rows
+
+
 def summary_markdown(report) -> str:
     """One row per family: for each light, the largest error on each receiver set (published
     / fitted) and the plane energy ratio; the compiled cost; notes on worse fits."""
@@ -110,9 +134,11 @@ def summary_markdown(report) -> str:
         for c in others:
             row.append(" / ".join(cell_error(report._get(fam, c.name, m)) for m in modes))
         lines.append(md_row(row))
+    lines += [md_row(r) for r in _area_rows(report, lights, others)]
     cost_label = next(iter(report.costs.values())).get("cost_label", "") if report.costs else ""
     text = (
-        "Cells: the largest |error| of the model's irradiance on each receiver set, "
+        "Cells: the largest |error| of the model's irradiance on each receiver set's sampled "
+        "receivers (a lower bound of the worst case the decision table judges by), "
         + ("*published* / *fitted*" if len(modes) == 2 else f"*{modes[0]}*")
         + ". Facing sweep: receivers facing the light's centre from contact to 1000 r; floor: "
         "floors facing up at the light at heights from contact to 10 r, out to 100 r; random "
@@ -124,7 +150,8 @@ def summary_markdown(report) -> str:
         "touching it, the disk r/4 above it) over the truth's. *published*: the source's "
         f"parameters for this light; {FIT_WHAT}. Cost: "
         + (cost_label or "not measured")
-        + " of the shader form `attenfit export` writes."
+        + " of the shader form `attenfit export` writes. Area models (the decision's other "
+        "class): as shipped, one value a cell, on the lights they are written for."
     )
     out = "\n".join(lines) + "\n\n" + text + "\n"
     if notes:
