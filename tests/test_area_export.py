@@ -18,11 +18,12 @@ import json
 import re
 import shutil
 import subprocess
-from pathlib import Path
 from typing import ClassVar
 
 import numpy as np
 import pytest
+from _tools import need as _need
+from _tools import run as _run
 
 import attenfit as af
 from attenfit import area
@@ -211,18 +212,6 @@ def _sources(lang: str) -> tuple[str, str]:
             extra = len(model.params()) if uniforms and lang in ("c", "cuda") else 0
             calls.append(f"{kind}_{k}(v, 0.5, 0.5, 0.1, 0.5, 0.5{', 0.7' * extra})")
     return "\n".join(parts), " + ".join(calls)
-
-
-def _need(tool: str) -> str:
-    path = shutil.which(tool)
-    if path is None:
-        pytest.skip(f"{tool} is not installed: this validation did not run")
-    return path
-
-
-def _run(cmd: list[str], cwd: Path) -> None:
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
-    assert proc.returncode == 0, f"{' '.join(cmd)}:\n{proc.stdout}\n{proc.stderr}"
 
 
 @pytest.mark.parametrize("version", ["450", "300 es"])

@@ -17,7 +17,6 @@ import platform
 import re
 import shutil
 import subprocess
-from pathlib import Path
 from typing import ClassVar
 
 import jax
@@ -25,6 +24,8 @@ import jax.numpy as jnp
 import mpmath
 import numpy as np
 import pytest
+from _tools import need as _need
+from _tools import run as _run
 
 import attenfit
 from attenfit import export as ex
@@ -339,18 +340,6 @@ def _calls(lang: str) -> str:
     return " + ".join(
         f"baked_{f}_{k}(v) + unif_{f}_{k}(v)" for k in range(len(FAMILIES)) for f in ex.FORMS
     )
-
-
-def _need(tool: str) -> str:
-    path = shutil.which(tool)
-    if path is None:
-        pytest.skip(f"{tool} is not installed: this validation did not run")
-    return path
-
-
-def _run(cmd: list[str], cwd: Path) -> None:
-    proc = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd)
-    assert proc.returncode == 0, f"{' '.join(cmd)}:\n{proc.stdout}\n{proc.stderr}"
 
 
 @pytest.mark.parametrize("version", ["450", "300 es"])
