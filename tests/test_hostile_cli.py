@@ -528,3 +528,41 @@ def test_report_mitsuba_with_a_good_grid_passes_the_check(tmp_path):
     ds2 = af.Dataset(ds.emitter, ds.points, ds.normals, ds.E, ds.stderr, provenance=no_index)
     _check_grid(str(path), ds2)  # every cell a receiver: the index may be left out
     assert np.asarray(ds2.E).size == N
+
+
+# ----------------------------------------------------------------------------- --force
+@pytest.mark.parametrize(
+    "argv, folder",
+    [
+        (["truth", "--emitter", "sphere", "--radius", "0.1", "--samples", "8"], False),
+        (["export", "yuksel", "--lang", "glsl"], False),
+        (["fit", "--family", "yuksel", "--emitter", "sphere", "--radius", "0.1"], True),
+        (["report", "--no-mitsuba"], True),
+    ],
+    ids=["truth", "export", "fit", "report"],
+)
+def test_force_replaces_only_attenfits_own_outputs(tmp_path, capsys, argv, folder):
+    """A user's file or folder at --out is refused even with --force, before any work, and
+    left as it was."""
+    target = tmp_path / ("mine" if folder else "mine.npz" if argv[0] == "truth" else "mine.glsl")
+    if folder:
+        target.mkdir()
+        (target / "notes.txt").write_text("my notes")
+    else:
+        target.write_text("my own file")
+    err = _exit2(capsys, *argv, "--out", str(target), "--force", fragment="not written by attenfit")
+    assert "--force replaces only attenfit's own outputs" in err
+    kept = target / "notes.txt" if folder else target
+    assert kept.read_text() == ("my notes" if folder else "my own file")
+
+
+def test_force_replaces_attenfits_own_outputs(tmp_path, capsys):
+    for argv, name in (
+        (["truth", "--emitter", "sphere", "--radius", "0.1", "--samples", "8"], "d.npz"),
+        (["export", "yuksel", "--lang", "glsl"], "f.glsl"),
+    ):
+        out = tmp_path / name
+        assert main([*argv, "--out", str(out)]) == 0
+        first = out.read_bytes()
+        assert main([*argv, "--out", str(out), "--force"]) == 0, capsys.readouterr().err
+        assert out.read_bytes() == first  # replaced by the same answer

@@ -74,7 +74,9 @@ GEN = [
 def test_gen_interrupted_keeps_previous_output_and_resumes(tmp_path):
     out = tmp_path / "g.npz"
     parts = tmp_path / "g.npz.parts"
-    out.write_bytes(b"previous output")
+    # an earlier dataset of attenfit's own (--force replaces nothing else)
+    af.facing_sweep(af.SphereEmitter([0.0, 0.0, 0.0], 0.1), 0.2, 1.0, n=4).save(out)
+    previous = out.read_bytes()
 
     # 1. SIGINT once the first chunk is on disk
     proc = _start(GEN, tmp_path)
@@ -84,7 +86,7 @@ def test_gen_interrupted_keeps_previous_output_and_resumes(tmp_path):
     assert code == 130, err
     assert "Traceback" not in err
     assert "finished chunks are kept" in err and "interrupted" in err
-    assert out.read_bytes() == b"previous output"
+    assert out.read_bytes() == previous
     assert not _leftovers(tmp_path)
     after_int = _chunks(parts)
     assert 1 <= len(after_int) < 8
@@ -99,7 +101,7 @@ def test_gen_interrupted_keeps_previous_output_and_resumes(tmp_path):
     code, _, err = _finish(proc)
     assert code == 143, err
     assert "Traceback" not in err and "terminated" in err
-    assert out.read_bytes() == b"previous output"
+    assert out.read_bytes() == previous
     assert not _leftovers(tmp_path)
     after_term = _chunks(parts)
     assert len(after_int) < len(after_term) < 8

@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from .._errors import BadValueError
-from ._common import EXIT_OK
+from ._common import EXIT_OK, check_output
 
 
 def add_parser(sub, parents: list) -> None:
@@ -63,7 +63,7 @@ def add_parser(sub, parents: list) -> None:
 
 
 def _run_export(args: argparse.Namespace) -> int:
-    from .._atomic import atomic_write, check_output_path
+    from .._atomic import atomic_write
     from .._shaders import FORMS, LANGUAGES, export
 
     if args.lang not in LANGUAGES:
@@ -80,7 +80,7 @@ def _run_export(args: argparse.Namespace) -> int:
         except ValueError:
             raise BadValueError(f"--param must be NAME=NUMBER, got {item!r}") from None
     if args.out is not None:
-        check_output_path(args.out, force=args.force)
+        check_output(args.out, force=args.force, kind="export")
     text = export(
         args.source,
         args.lang,

@@ -6,7 +6,7 @@ import argparse
 
 from .. import _progress
 from .._errors import AttenfitError, BadValueError
-from ._common import EXIT_OK
+from ._common import EXIT_OK, check_output
 
 
 def add_parser(sub, parents: list) -> None:
@@ -68,12 +68,11 @@ def _run_report(args: argparse.Namespace) -> int:
     import re
     from pathlib import Path
 
-    from .._atomic import check_output_path
     from .._fit import enable_persistent_cache
     from .._report import build_report
     from .._truth import Dataset
 
-    check_output_path(args.out, force=args.force, folder=True)  # refuse before any work
+    check_output(args.out, force=args.force, kind="report", folder=True)  # before any work
     enable_persistent_cache()  # a second run loads the compiled solves instead of compiling
     datasets = {}
     for path in args.mitsuba:

@@ -9,7 +9,7 @@ import sys
 
 from .. import _progress
 from .._errors import AttenfitError, BadValueError
-from ._common import EXIT_OK, configuration_emitter
+from ._common import EXIT_OK, check_output, configuration_emitter
 
 
 def add_parser(sub, parents: list) -> None:
@@ -126,12 +126,10 @@ def _configuration_dataset(args: argparse.Namespace, dtype: str):
 
 
 def _run_truth(args: argparse.Namespace) -> int:
-    from .._atomic import check_output_path
-
     if not args.out.endswith(".npz"):
         raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
     _check_configuration(args)
-    check_output_path(args.out, force=args.force)
+    check_output(args.out, force=args.force, kind="dataset")
     ds = _configuration_dataset(args, args.dtype)
     path = ds.save(args.out, force=args.force)
     print(
@@ -193,8 +191,6 @@ class _RenderBar:
 def _run_gen(args: argparse.Namespace) -> int:
     import time
 
-    from .._atomic import check_output_path
-
     try:  # the one place attenfit uses data_gen: imported only when this verb runs
         from data_gen import render_batch, render_dataset
         from data_gen.variants import require_mitsuba
@@ -206,7 +202,7 @@ def _run_gen(args: argparse.Namespace) -> int:
     if not args.out.endswith(".npz"):
         raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
     require_mitsuba()
-    check_output_path(args.out, force=args.force)
+    check_output(args.out, force=args.force, kind="dataset")
     if args.spp < 2:
         raise BadValueError(f"--spp must be at least 2, got {args.spp}")
     if args.chunk is not None and args.chunk < 1:
