@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from _stderr import STAGE_LINE
+from _stderr import without_progress
 
 import attenfit as af
 from attenfit import (
@@ -957,7 +957,7 @@ API_CASES = [
 def _one_line(text: str) -> str:
     """The one line of `text` that is not a progress stage line (`attenfit fit: [  0.8 s] ...`,
     written wherever stderr goes)."""
-    lines = [ln for ln in text.strip("\n").splitlines() if not STAGE_LINE.match(ln)]
+    lines = without_progress(text.strip("\n")).splitlines()
     assert len(lines) == 1, f"expected one line, got {len(lines)}:\n{text}"
     return lines[0]
 

@@ -7,7 +7,7 @@ import argparse
 import sys
 
 from .._errors import BadValueError
-from ._common import EXIT_OK, check_output
+from ._common import EXIT_OK, OWN_MARKS, check_output
 
 
 def add_parser(sub, parents: list) -> None:
@@ -80,7 +80,7 @@ def _run_export(args: argparse.Namespace) -> int:
         except ValueError:
             raise BadValueError(f"--param must be NAME=NUMBER, got {item!r}") from None
     if args.out is not None:
-        check_output(args.out, force=args.force, kind="export")
+        check_output(args.out, force=args.force, marks=OWN_MARKS["export"])
     text = export(
         args.source,
         args.lang,

@@ -8,7 +8,7 @@ import sys
 
 from .. import _progress
 from .._errors import BadValueError
-from ._common import EXIT_NOT_CONVERGED, EXIT_OK, check_output, configuration_emitter
+from ._common import EXIT_NOT_CONVERGED, EXIT_OK, OWN_MARKS, check_output, configuration_emitter
 
 
 def add_parser(sub, parents: list) -> None:
@@ -108,7 +108,7 @@ def _run_fit(args: argparse.Namespace) -> int:
     names = [n.strip() for n in args.family.split(",") if n.strip()]
     classes = [get_family(n) for n in names]  # unknown names fail here, before any work
     if args.out is not None:
-        check_output(args.out, force=args.force, kind="fits", folder=True)
+        check_output(args.out, force=args.force, marks=OWN_MARKS["fits"], folder=True)
     free = (
         None if args.free is None else tuple(p.strip() for p in args.free.split(",") if p.strip())
     )

@@ -6,7 +6,7 @@ import argparse
 
 from .. import _progress
 from .._errors import AttenfitError, BadValueError
-from ._common import EXIT_OK, check_output
+from ._common import EXIT_OK, OWN_MARKS, check_output
 
 
 def add_parser(sub, parents: list) -> None:
@@ -72,7 +72,9 @@ def _run_report(args: argparse.Namespace) -> int:
     from .._report import build_report
     from .._truth import Dataset
 
-    check_output(args.out, force=args.force, kind="report", folder=True)  # before any work
+    check_output(
+        args.out, force=args.force, marks=OWN_MARKS["report"], folder=True
+    )  # before any work
     enable_persistent_cache()  # a second run loads the compiled solves instead of compiling
     datasets = {}
     for path in args.mitsuba:

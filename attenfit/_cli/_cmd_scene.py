@@ -8,7 +8,7 @@ import json
 
 from .. import _progress
 from .._errors import BadValueError
-from ._common import EXIT_OK
+from ._common import EXIT_OK, OWN_MARKS, check_output
 
 #: The engines `--engine` takes: `attenfit._scenes._engine.ENGINES`, named here so that
 #: `--help` does not import the scene stage (JAX); tests/test_architecture.py checks them.
@@ -77,11 +77,8 @@ def add_parser(sub, parents: list) -> None:
 
 #: What `attenfit scene --out DIR` writes (a TOML scene's recommendation, a file's answer):
 #: `--force` replaces an existing DIR only when it holds one, i.e. when attenfit wrote it.
-OWN_FOLDER_MARKS = ("answer.json", "recommendation.json")
-
-
 def _run_scene(args: argparse.Namespace) -> int:
-    from .._atomic import check_distinct, check_output_path, check_own_output
+    from .._atomic import check_distinct
     from .._fit import enable_persistent_cache
     from .._scenes import Scene, engine_scene, is_mesh_scene, recommend
 
@@ -102,13 +99,9 @@ def _run_scene(args: argparse.Namespace) -> int:
         check_distinct({"--out": args.out, "--write-back": args.write_back})
         held = scene_files(args.file)  # recorded as inputs: no output may replace one
     if args.out is not None:
-        check_output_path(args.out, force=args.force, folder=True)
-        if args.force:
-            check_own_output(args.out, folder=True, marks=OWN_FOLDER_MARKS)
+        check_output(args.out, force=args.force, marks=OWN_MARKS["answer"], folder=True)
     if mesh and args.write_back is not None:
-        check_output_path(args.write_back, force=args.force)
-        if args.force:
-            check_own_output(args.write_back, marks=WRITE_BACK_MARKS)
+        check_output(args.write_back, force=args.force, marks=WRITE_BACK_MARKS)
     import jax
 
     jax.config.update("jax_enable_x64", True)  # truth and fits in float64 (float32: a constraint)

@@ -9,7 +9,7 @@ import sys
 
 from .. import _progress
 from .._errors import AttenfitError, BadValueError
-from ._common import EXIT_OK, check_output, configuration_emitter
+from ._common import EXIT_OK, OWN_MARKS, check_output, configuration_emitter
 
 
 def add_parser(sub, parents: list) -> None:
@@ -129,7 +129,7 @@ def _run_truth(args: argparse.Namespace) -> int:
     if not args.out.endswith(".npz"):
         raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
     _check_configuration(args)
-    check_output(args.out, force=args.force, kind="dataset")
+    check_output(args.out, force=args.force, marks=OWN_MARKS["dataset"])
     ds = _configuration_dataset(args, args.dtype)
     path = ds.save(args.out, force=args.force)
     print(
@@ -202,7 +202,7 @@ def _run_gen(args: argparse.Namespace) -> int:
     if not args.out.endswith(".npz"):
         raise BadValueError(f"--out must name a .npz file, got {args.out!r}")
     require_mitsuba()
-    check_output(args.out, force=args.force, kind="dataset")
+    check_output(args.out, force=args.force, marks=OWN_MARKS["dataset"])
     if args.spp < 2:
         raise BadValueError(f"--spp must be at least 2, got {args.spp}")
     if args.chunk is not None and args.chunk < 1:

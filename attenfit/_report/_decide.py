@@ -156,7 +156,6 @@ def decide(
     sources: Sequence[Callable[[Any, Any], Iterable[Candidate]]] = SOURCES,
     *,
     verify: bool = True,
-    progress: Callable[[str], None] | None = None,
 ) -> list[dict[str, Any]]:
     """The decision table's entries: one per configuration with receivers x band x tolerance.
 
@@ -174,7 +173,7 @@ def decide(
         if not cfg.receivers:
             continue
         cands = candidates(report, cfg)
-        check = Verifier(cfg, progress) if verify else None
+        check = Verifier(cfg) if verify else None
         extra: list[Candidate] | None = None
         for band in GAP_BANDS:
             judged = [c for c in cands if c.errors.get(band) is not None]

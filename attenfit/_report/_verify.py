@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -46,9 +46,8 @@ CLOSEST_SEARCHED = 3
 class Verifier:
     """Worst cases of one configuration's candidates, each searched once per band."""
 
-    def __init__(self, cfg: Any, progress: Callable[[str], None] | None = None):
+    def __init__(self, cfg: Any):
         self.cfg = cfg
-        self.progress = progress
         self._memo: dict[tuple[str, str, str], Found | None] = {}
 
     def worst(self, c: Candidate, band: str) -> Found | None:
@@ -57,10 +56,10 @@ class Verifier:
         key = (c.label, c.params, band)
         if key not in self._memo:
             model = c.build() if c.build is not None else None
-            self._memo[key] = None if model is None else self._search(model, c.label, band)
+            self._memo[key] = None if model is None else self._search(model, band)
         return self._memo[key]
 
-    def _search(self, model: Any, label: str, band: str) -> Found | None:
+    def _search(self, model: Any, band: str) -> Found | None:
         key = json.dumps(
             {
                 "model": type(model).__name__,
@@ -74,8 +73,6 @@ class Verifier:
         if cached is not None:
             got = json.loads(cached)
             return None if got is None else Found(got["error"], got["where"])
-        if self.progress is not None:
-            self.progress(f"worst case: {label} on {self.cfg.name}, {band}")
         try:
             w = worst_case(model, self.cfg.emitter, band, typical_n=0)
             found = Found(float(w.error), w.where())

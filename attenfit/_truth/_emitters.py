@@ -200,6 +200,21 @@ class AbstractEmitter(eqx.Module):
         return None
 
 
+def flat_point_light(
+    emitter: AbstractEmitter, points: ArrayLike, normals: ArrayLike, two_sided: bool = False
+) -> tuple[Array, Array]:
+    """A flat light's stand-in point light (a disk, a rectangle): the distance to its centre and
+    `I * g * max(0, n.l)`, `g = max(0, m.(p - c)/d)` (`|.|` if two-sided); 0 at `d = 0`."""
+    p, n = _receivers(points, normals)
+    dv = _bcast(emitter.center, p) - p
+    d = _safe_norm(dv)
+    dsafe = jnp.where(d > 0, d, 1)
+    cos_r = _dot(n, dv) / dsafe
+    cos_e = -_dot(_bcast(emitter.normal, p), dv) / dsafe
+    g = jnp.abs(cos_e) if two_sided else jnp.maximum(cos_e, 0)
+    return d, emitter.intensity.astype(p.dtype) * g * jnp.maximum(cos_r, 0)
+
+
 class SphereEmitter(AbstractEmitter):
     """A Lambertian sphere of centre `center` (m), radius `radius` (m), intensity `intensity`.
 
@@ -277,14 +292,7 @@ class DiskEmitter(AbstractEmitter):
 
         Two-sided disks use `g = |m.(p - c)| / d`. The weight is 0 at `d = 0`.
         """
-        p, n = _receivers(points, normals)
-        dv = _bcast(self.center, p) - p
-        d = _safe_norm(dv)
-        dsafe = jnp.where(d > 0, d, 1)
-        cos_r = _dot(n, dv) / dsafe
-        cos_e = -_dot(_bcast(self.normal, p), dv) / dsafe
-        g = jnp.abs(cos_e) if self.two_sided else jnp.maximum(cos_e, 0)
-        return d, self.intensity.astype(p.dtype) * g * jnp.maximum(cos_r, 0)
+        return flat_point_light(self, points, normals, self.two_sided)
 
     def to_dict(self) -> dict[str, Any]:
         return {

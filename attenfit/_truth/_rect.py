@@ -34,14 +34,13 @@ from jaxtyping import Array, ArrayLike, Float
 from .._errors import BadValueError
 from ._emitters import (
     AbstractEmitter,
-    _bcast,
     _check_positive,
     _check_real,
     _dot,
     _is_traced,
-    _receivers,
     _safe_norm,
     _unit,
+    flat_point_light,
 )
 from ._irradiance import _one_minus_atan_ratio
 
@@ -112,13 +111,7 @@ class RectEmitter(AbstractEmitter):
 
     def point_light(self, points, normals):
         """Distance to the centre and `I * max(0, cos_e) * max(0, n.l)` (as a one-sided disk)."""
-        p, n = _receivers(points, normals)
-        dv = _bcast(self.center, p) - p
-        d = _safe_norm(dv)
-        dsafe = jnp.where(d > 0, d, 1)
-        cos_r = _dot(n, dv) / dsafe
-        cos_e = -_dot(_bcast(self.normal, p), dv) / dsafe
-        return d, self.intensity.astype(p.dtype) * jnp.maximum(cos_e, 0) * jnp.maximum(cos_r, 0)
+        return flat_point_light(self, points, normals)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -199,8 +192,4 @@ def rect_kernel(emitter: RectEmitter, dtype: Any) -> Any:
     c, m, u = cast(emitter.center), cast(emitter.normal), cast(emitter.tangent)
     hw, hh = cast(emitter.width) / 2, cast(emitter.height) / 2
     L = cast(emitter.intensity) / (cast(emitter.width) * cast(emitter.height))
-    return jax.tree_util.Partial(_rect_bound, c, m, u, hw, hh, L)
-
-
-def _rect_bound(c, m, u, hw, hh, L, p, n):
-    return rect_irradiance_one(c, m, u, hw, hh, L, p, n)
+    return jax.tree_util.Partial(rect_irradiance_one, c, m, u, hw, hh, L)
