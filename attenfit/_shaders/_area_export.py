@@ -17,16 +17,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import numpy as np
-
 from .._curves import AREA_INPUTS, AreaModel, Family
 from .._errors import BadValueError
 from .._version import __version__
 from ._area_exprs import area_export_form
 from ._print import print_form
-from ._text import comment_lines, fit_summary, float32_literal, float32_param
+from ._text import comment_lines, fit_summary, float32_literal, scalar_params
 
-__all__ = ["AREA_INPUT_TEXT", "area_source", "area_values"]
+__all__ = ["AREA_INPUT_TEXT", "area_source"]
 
 #: Each input of an area model's function: what it is, and its unit.
 AREA_INPUT_TEXT: Mapping[str, str] = {
@@ -37,21 +35,6 @@ AREA_INPUT_TEXT: Mapping[str, str] = {
     "cos_n": "-n.m, the receiver's normal against a disk's axis (a sphere: cos_r); 1",
     "g": "the emitter factor (1 for a sphere, max(0, cos_e) for a one-sided disk); 1",
 }
-
-
-def area_values(model: AreaModel) -> dict[str, float]:
-    """The model's parameters as finite float32 scalars (`BadValueError` for a batch, or for
-    a value float32 cannot hold)."""
-    out = {}
-    for p, v in model.params().items():
-        value = np.asarray(v, np.float64)
-        if value.ndim:
-            raise BadValueError(
-                f"area model {model.name!r} has parameter {p} of shape {value.shape}; export "
-                "takes one set of parameters, not a batch: pick one problem"
-            )
-        out[p] = float32_param(model.name, p, float(value))
-    return out
 
 
 def area_source(
@@ -73,7 +56,7 @@ def area_source(
         what = f" (family {inner.name!r} has none)" if isinstance(inner, Family) else ""
         raise BadValueError(f"area model {model.name!r} has no shader form{what}: cannot export it")
     form, renamed = made
-    values = area_values(model)
+    values = scalar_params(model)
     lines = []
     if header:
         lines = _header(model, form, renamed, values, info or {}, lang, fname, uniforms, notes)

@@ -46,6 +46,7 @@ from ._text import (
     fit_summary,
     float32_literal,
     float32_param,
+    scalar_params,
 )
 from ._trace import trace
 
@@ -152,20 +153,6 @@ def _plain(value: Any) -> Any:
         return {str(k): _plain(v) for k, v in value.items()}
     arr = np.asarray(value)
     return arr.item() if arr.dtype.kind in "fiub" and arr.ndim == 0 else value
-
-
-def scalar_params(family: Family) -> dict[str, float]:
-    """The family's parameters as finite float32 scalars (one problem, not a batch)."""
-    out = {}
-    for p in family.param_names():
-        value = np.asarray(getattr(family, p), np.float64)
-        if value.ndim:
-            raise BadValueError(
-                f"family {family.name!r} has parameter {p} of shape {value.shape}; export "
-                "and cost take one set of parameters, not a batch: pick one problem"
-            )
-        out[p] = float32_param(family.name, p, float(value))
-    return out
 
 
 def function_source(
