@@ -20,7 +20,17 @@ PACKAGE = Path(__file__).resolve().parent.parent / "attenfit"
 #: The stages, bottom to top. A module of stage k may import stages 0..k (its own included).
 STAGES = ("base", "curves", "truth", "fit", "shaders", "judge", "report", "scenes", "cli", "public")
 #: The base stage's modules (top-level private modules every stage may use).
-BASE = ("_errors", "_atomic", "_version", "_cache", "_progress", "_input", "_budget", "_float64")
+BASE = (
+    "_errors",
+    "_atomic",
+    "_version",
+    "_cache",
+    "_progress",
+    "_input",
+    "_budget",
+    "_float64",
+    "_ir",
+)
 #: Longest module allowed, in lines.
 MAX_LINES = 600
 

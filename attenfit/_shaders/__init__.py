@@ -7,6 +7,8 @@ estimate; `_compile`: real compilers) and how precise they are in float16 and fl
 Imports the curves stage (and the fitting stage's results, by duck typing) and nothing above.
 """
 
+from .._ir import ShaderForm as ShaderForm
+from .._ir import evaluate_form as evaluate_form
 from ._area_export import area_source as area_source
 from ._area_exprs import area_export_form as area_export_form
 from ._area_exprs import area_function_source as area_function_source
@@ -37,8 +39,6 @@ from ._export import function_source as function_source
 from ._export import scalar_params as scalar_params
 from ._forms import SHADER_FORMS as SHADER_FORMS
 from ._forms import shader_form as shader_form
-from ._ir import ShaderForm as ShaderForm
-from ._ir import evaluate_form as evaluate_form
 from ._model import load_model as load_model
 from ._precision import PRECISIONS as PRECISIONS
 from ._precision import Precision as Precision

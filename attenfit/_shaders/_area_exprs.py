@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 
 from .._curves import AREA_INPUTS, AreaModel, PointLight
-from ._forms import _Lets, shader_form
-from ._ir import Call, Expr, Ref, ShaderForm, evaluate_form, fn
+from .._ir import Call, Expr, Lets, Ref, ShaderForm, evaluate_form, fn
+from ._forms import shader_form
 from ._print import print_form
 
 __all__ = [
@@ -54,7 +54,7 @@ def _area_form(name: str, source: str, *, engine: bool, note: str = ""):
 
     def deco(build: Callable[..., Expr]) -> Callable[..., Expr]:
         def make(model: AreaModel) -> ShaderForm:
-            let = _Lets()
+            let = Lets()
             params = (*model.param_names(), "radius")
             p = {k: Ref(k, "param") for k in params}
             result = build(let, _inputs(), p, model)
@@ -68,7 +68,7 @@ def _area_form(name: str, source: str, *, engine: bool, note: str = ""):
     return deco
 
 
-def _illuminance(let: _Lets, cos_theta: Expr, sin2: Expr, tag: str) -> Ref:
+def _illuminance(let: Lets, cos_theta: Expr, sin2: Expr, tag: str) -> Ref:
     """Frostbite's `illuminanceSphereOrDisk(cosTheta, sinSigmaSqr)` (Lagarde & de Rousiers 2014,
     section 4.7.2.4), both branches then a select, as a compiler flattens the `if`."""
     st = let(f"{tag}sin_theta", fn("sqrt", 1.0 - cos_theta * cos_theta))
@@ -224,6 +224,8 @@ def _point_light(model: PointLight) -> ShaderForm | None:
 
 def area_shader_form(model: AreaModel) -> ShaderForm | None:
     """The shader form of `model` (an instance), or None when it has none."""
+    if hasattr(model, "shader_form"):  # a model that owns its form (issue 26's end state)
+        return model.shader_form()
     if isinstance(model, PointLight):
         return _point_light(model)
     make = _BUILDERS.get(model.name)

@@ -94,10 +94,10 @@ def area_compiled_cost(model: AreaModel) -> AreaCompiledCost:
 
     def walk(e: Any) -> None:
         nonlocal total
-        from ._ir import Call, _refs
+        from .._ir import Call, reads
 
         if isinstance(e, Call):
-            if _refs(e, {"d"}, uniform):
+            if reads(e, {"d"}, uniform):
                 total += SHADER_WEIGHTS.get(names.get(e.op, e.op), 1)
             for a in e.args:
                 walk(a)

@@ -448,9 +448,9 @@ def structural_cost(family: Any, *, form: str = "shader", sass: bool = False) ->
 
 def _estimate(family: Any, form: str) -> float:
     """The traced-operation model (`SHADER_WEIGHTS`) on the form."""
+    from .._ir import Call
     from ._cost import SHADER_WEIGHTS, shader_cost
     from ._forms import shader_form
-    from ._ir import Call
 
     sf = shader_form(family) if form == "shader" else None
     if sf is None:
@@ -475,6 +475,6 @@ def _estimate(family: Any, form: str) -> float:
 
 
 def _reads_d(e: Any, uniform: set[str]) -> bool:
-    from ._ir import _refs
+    from .._ir import reads
 
-    return _refs(e, {"d"}, uniform)
+    return reads(e, {"d"}, uniform)

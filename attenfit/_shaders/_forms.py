@@ -17,7 +17,7 @@ import math
 from collections.abc import Callable
 
 from .._curves import Family
-from ._ir import Expr, Ref, ShaderForm, fn
+from .._ir import Expr, Lets, Ref, ShaderForm, fn
 
 __all__ = ["SHADER_FORMS", "shader_form"]
 
@@ -25,23 +25,12 @@ __all__ = ["SHADER_FORMS", "shader_form"]
 SHADER_FORMS: dict[str, Callable[[Family], ShaderForm]] = {}
 
 
-class _Lets:
-    """Collects the named temporaries of a form in order."""
-
-    def __init__(self) -> None:
-        self.items: list[tuple[str, Expr]] = []
-
-    def __call__(self, name: str, expr: Expr) -> Ref:
-        self.items.append((name, expr))
-        return Ref(name, "let")
-
-
 def _form(family: str, params: tuple[str, ...], source: str, *, engine: bool, note: str = ""):
     """Register `build(let, d, *params) -> result` as the form of `family`."""
 
     def deco(build: Callable[..., Expr]) -> Callable[..., Expr]:
         def make(_instance: Family | None = None) -> ShaderForm:
-            let = _Lets()
+            let = Lets()
             result = build(let, Ref("d", "d"), *(Ref(p, "param") for p in params))
             return ShaderForm(family, params, tuple(let.items), result, source, engine, note)
 
@@ -53,6 +42,8 @@ def _form(family: str, params: tuple[str, ...], source: str, *, engine: bool, no
 
 def shader_form(family: Family) -> ShaderForm | None:
     """The shader form of `family` (an instance), or None when it has none."""
+    if hasattr(family, "shader_form"):  # a model that owns its form (issue 26's end state)
+        return family.shader_form()
     make = SHADER_FORMS.get(family.name)
     return None if make is None else make(family)
 
@@ -236,7 +227,7 @@ def _godot(let, d, a, r_max):
 
 def _cryengine(instance: Family | None) -> ShaderForm:
     squared = bool(getattr(instance, "squared", True))
-    let = _Lets()
+    let = Lets()
     d, r_min, r_max = Ref("d", "d"), Ref("r_min", "param"), Ref("r_max", "param")
     k = let("k", (1.0 / r_max) / 0.2)
     fade = let("fade", fn("saturate", (r_max - d) * k))

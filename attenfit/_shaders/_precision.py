@@ -23,9 +23,9 @@ import numpy as np
 from jaxtyping import Float
 
 from .._curves import Family
+from .._ir import evaluate_form
 from ._export import scalar_params
 from ._forms import shader_form
-from ._ir import evaluate_form
 
 __all__ = ["PRECISIONS", "Precision", "precision", "shade_in"]
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-from ._ir import Call, Expr, Num, Ref, ShaderForm
+from .._ir import Call, Expr, Num, Ref, ShaderForm
 from ._text import float32_literal, ident, uniform_block, uniform_ref
 
 __all__ = ["print_form"]

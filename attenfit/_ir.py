@@ -16,9 +16,20 @@ from typing import Any
 import numpy as np
 from jaxtyping import Float
 
-from .._errors import BadValueError
+from ._errors import BadValueError
 
-__all__ = ["OPS", "Call", "Expr", "Num", "Ref", "ShaderForm", "evaluate_form", "fn"]
+__all__ = [
+    "OPS",
+    "Call",
+    "Expr",
+    "Lets",
+    "Num",
+    "Ref",
+    "ShaderForm",
+    "evaluate_form",
+    "fn",
+    "reads",
+]
 
 #: Every operation: name -> number of arguments.
 OPS: Mapping[str, int] = {
@@ -110,6 +121,17 @@ def fn(op: str, *args: Any) -> Call:
     return Call(op, tuple(_lift(a) for a in args))
 
 
+class Lets:
+    """Collects the named temporaries of a form in order: `let(name, expr)` returns a `Ref`."""
+
+    def __init__(self) -> None:
+        self.items: list[tuple[str, Expr]] = []
+
+    def __call__(self, name: str, expr: Expr) -> "Ref":
+        self.items.append((name, expr))
+        return Ref(name, "let")
+
+
 @dataclasses.dataclass(frozen=True)
 class ShaderForm:
     """The expression an engine ships (or a person would write) for one family.
@@ -134,7 +156,7 @@ class ShaderForm:
         """The temporaries that read parameters only (a compiler folds them when baked)."""
         out: set[str] = set()
         for name, expr in self.lets:
-            if not _refs(expr, {"d"}, out):
+            if not reads(expr, {"d"}, out):
                 out.add(name)
         return out
 
@@ -146,18 +168,18 @@ class ShaderForm:
         )
 
 
-def _refs(expr: Expr, kinds: set[str], uniform: set[str]) -> bool:
+def reads(expr: Expr, kinds: set[str], uniform: set[str]) -> bool:
     """Whether `expr` reads `d` (directly or through a temporary that does)."""
     if isinstance(expr, Ref):
         return expr.kind in kinds or (expr.kind == "let" and expr.name not in uniform)
     if isinstance(expr, Call):
-        return any(_refs(a, kinds, uniform) for a in expr.args)
+        return any(reads(a, kinds, uniform) for a in expr.args)
     return False
 
 
 def _count(expr: Expr, uniform: set[str]) -> int:
     if isinstance(expr, Call):
-        here = 1 if _refs(expr, {"d"}, uniform) else 0
+        here = 1 if reads(expr, {"d"}, uniform) else 0
         return here + sum(_count(a, uniform) for a in expr.args)
     return 0
 
