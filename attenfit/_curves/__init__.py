@@ -51,6 +51,7 @@ from ._area_models import UnrealWrap as UnrealWrap
 from ._area_models import GodotWrap as GodotWrap
 from ._area_models import HdrpSphere as HdrpSphere
 from ._area_models import MrpSphere as MrpSphere
+from ._clipped_disk import ClippedDisk as ClippedDisk
 from ._directional import MIN_COS_WIDTH as MIN_COS_WIDTH
 from ._directional import SPOT_FALLOFFS as SPOT_FALLOFFS
 from ._directional import SpotFalloff as SpotFalloff
