@@ -96,6 +96,13 @@ def report_decision(inputs: Inputs) -> str:
     return inputs.report.decision_markdown().rstrip()
 
 
+def area_worst(inputs: Inputs) -> str:
+    """Every area model's worst case per light and band, from the judge (docs/area.md)."""
+    from attenfit._report._area_candidates import area_worst_markdown
+
+    return area_worst_markdown(inputs.report).rstrip()
+
+
 def report_findings(inputs: Inputs) -> str:
     """The numbers behind the seeds' claims, and the windows table (docs/report.md)."""
     rep = inputs.report
@@ -336,6 +343,7 @@ SECTIONS = {
     "report-decision-doc": Section("docs/report.md", report_decision),
     "report-summary": Section("README.md", report_summary),
     "report-findings": Section("docs/report.md", report_findings),
+    "area-worst": Section("docs/area.md", area_worst),
     "published-rules": Section("docs/report.md", published_rules),
     "families-table": Section("docs/families.md", families_table),
     "scene-keys": Section("docs/scenes.md", scene_keys),

@@ -28,6 +28,8 @@ from ._markdown import fmt_num, fmt_pct, fmt_stops, md_row
 from ._metrics import GAP_BAND_LABELS, GAP_BANDS
 from ._verify import Verifier
 
+#: The name of the typical error (the 95th percentile over random receivers) in every table.
+TYPICAL_HEADER = "typical (p95)"
 #: The tolerances of the decision table (largest |error| on the receivers that matter).
 TOLERANCES: tuple[float, ...] = (0.01, 0.05, 0.2)
 #: Where the candidates of the cells no distance curve meets come from:
@@ -217,7 +219,8 @@ def _worst_fields(c: Candidate, w: Any, band: str, why: str) -> dict[str, Any]:
         return {}
     if "its largest error is" not in why:
         why += f" Its worst case: {fmt_pct(w.error)} {w.where()}."
-    return {"error": w.error, "where": w.where(), "sampled": c.errors.get(band), "why": why}
+    return {"error": w.error, "where": w.where(), "typical": w.typical,
+            "sampled": c.errors.get(band), "why": why}  # fmt: skip
 
 
 def _error(c: Candidate, band: str, check: Verifier | None) -> tuple[float, str]:
@@ -274,14 +277,14 @@ def _none_within(
     """The entry's fields where no candidate is within `tol`: the closest, and why."""
     top = (ranking.closest or ranking.outside[0]).item
     assert top is not None
-    err, where = top.errors[band], _where(top, band)
+    err, where, typical = top.errors[band], _where(top, band), None
     if check is not None:
         sampled = [c for c in (*ranking.within, *ranking.outside) if c.error is not None]
         by_error = [c.item for c in sorted(sampled, key=lambda c: c.error) if c.item is not top]
         found = check.closest([top, *by_error], band)
         if found is not None:
             top, w = found
-            err, where = w.error, f" {w.where()}"
+            err, where, typical = w.error, f" {w.where()}", w.typical
     if top.kind != "distance curve":  # an area model is closest, and still not within
         curve = rank_band(judged, band, tol).closest
         reason = "; no model of either class meets the tolerance" + (
@@ -315,6 +318,7 @@ def _none_within(
         "why": f"The closest is {fmt_pct(err)} off{where}{reason}.",
         "best": top.model,
         "sampled": top.errors[band],
+        "typical": typical,
     }
 
 
@@ -324,8 +328,9 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
         return ""
     lines = [
         md_row(["light", "distance from its surface", "tolerance", "cheapest model",
-                "parameters (r: the light's radius)", "max error", "in stops", "cost", "why"]),
-        md_row(["---", "---", "---:", "---", "---", "---:", "---:", "---:", "---"]),
+                "parameters (r: the light's radius)", "worst case", "in stops", TYPICAL_HEADER,
+                "cost", "why"]),
+        md_row(["---", "---", "---:", "---", "---", "---:", "---:", "---:", "---:", "---"]),
     ]  # fmt: skip
     rows: list[list[Any]] = []  # consecutive tolerances with the same answer share a row
     for e in entries:
@@ -359,6 +364,7 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
                     e["params"],
                     fmt_pct(e["error"]),
                     fmt_stops(e["error"]),
+                    fmt_pct(e["typical"]) if e.get("typical") is not None else "—",
                     fmt_num(e["cost"]),
                     same[5],
                 ]
@@ -366,12 +372,14 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
         )
         last = group
     note = (
-        "Max error: the worst |error| of the model's irradiance over every receiver of the band "
+        "*Worst case*: the worst |error| of the model's irradiance over every receiver of the band "
         "that the three receiver sets span (facing, floors from contact to 10 r, any "
         "orientation), found by a search from contact (docs/judging.md), and where it lies; "
         "the sampled receivers of the summary only rule models out (their largest error is a "
         "lower bound of the worst). "
-        "bands on the distance from the light's surface (d − r for a sphere, to the nearest point of a disk); "
+        f"*{TYPICAL_HEADER}*: the 95th percentile of |error| over random receivers of the band "
+        "(4096 per receiver set, the largest over the sets; docs/judging.md), a typical error "
+        "beside the worst. Bands on the distance from the light's surface (d − r for a sphere, to the nearest point of a disk); "
         "*in stops*: the most that error can be in stops, −log2(1 − error) (a stop is a "
         "doubling of light; 0.1 stop is about the smallest step a viewer sees). "
         "Cheapest by the compiled shader cost"

@@ -14,7 +14,7 @@ import numpy as np
 
 from .._curves import get_family
 from . import _plots as plots
-from ._cost_plot import plot_cost_vs_error
+from ._cost_plot import decision_cost_figure
 from ._display import plot_display_models
 from ._metrics import GAP_BAND_LABELS
 
@@ -214,54 +214,9 @@ def _side_by_side(report, cfg):
 
 
 def _cost_vs_error(report):
-    """Error against shader cost per sweep configuration, as published and fitted, with the
-    Pareto front (`attenfit.cost.plot_cost_vs_error`)."""
-    import matplotlib as mpl
-
-    sweeps = [c for c in report.configs if c.sweep is not None]
-    costs = {
-        k: v["shader_cost"] for k, v in report.costs.items() if v.get("shader_cost") is not None
-    }
-    if not costs or not sweeps:
-        return None
-    panels = []  # (row, column, config, mode, errors)
-    modes = [m for m in ("published", "fitted") if any(r["mode"] == m for r in report.results)]
-    for j, cfg in enumerate(sweeps):
-        for i, mode in enumerate(modes):
-            errors = {}
-            for fam in report.families:
-                row = report._get(fam, cfg.name, mode)
-                if fam not in costs or row is None or row["status"] != "ok":
-                    continue
-                sw = row["sweep"] or {}
-                st = sw.get("inner_half") or sw.get("overall") or {}
-                if st.get("max_abs") is not None:
-                    errors[fam] = float(st["max_abs"])
-            if errors:
-                panels.append((i, j, cfg, mode, errors))
-    if not panels:
-        return None
-    with mpl.rc_context(plots.STYLE):
-        fig = plots.new_figure((7.0 * len(sweeps), 5.2 * len(modes)))
-        axes = fig.subplots(len(modes), len(sweeps), squeeze=False)
-        used = set()
-        for i, j, cfg, mode, errors in panels:
-            mode_text = "as published" if mode == "published" else "fitted"
-            plot_cost_vs_error(
-                errors,
-                {k: costs[k] for k in errors},
-                by="shader_cost",
-                ax=axes[i, j],
-                xlabel=next(iter(report.costs.values())).get("cost_label", "shader cost"),
-                title=f"{cfg.name} (r = {cfg.radius:g} m), {mode_text}",
-                ylabel="largest |relative error|, facing sweep (ᵂ: d ≤ range/2)",
-            )
-            used.add((i, j))
-        for i in range(len(modes)):
-            for j in range(len(sweeps)):
-                if (i, j) not in used:
-                    axes[i, j].set_visible(False)
-    return fig
+    """The decision's error against the compiled cost, both model classes
+    (`_cost_plot.decision_cost_figure`)."""
+    return decision_cost_figure(report)
 
 
 def _witness_z(report, cfg):

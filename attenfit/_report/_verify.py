@@ -26,7 +26,9 @@ __all__ = ["Found", "Verifier"]
 
 @dataclasses.dataclass(frozen=True)
 class Found:
-    """A model's worst case on a band as the table quotes it: the error and where it lies.
+    """A model's worst case on a band as the table quotes it: the error and where it lies,
+    and its typical error (`typical`: the 95th percentile of |error| over random receivers of
+    the band, the largest over the receiver sets; `attenfit._judge.worst_case`).
 
     Kept in attenfit's cache (kind "worst", keyed by the model's class and parameter values,
     the light and the band, for this code version), so a warm report searches nothing again.
@@ -34,9 +36,15 @@ class Found:
 
     error: float
     place: str
+    typical: float | None = None
 
     def where(self) -> str:
         return self.place
+
+
+def _decode(cached: bytes) -> Found | None:
+    got = json.loads(cached)
+    return None if got is None else Found(got["error"], got["where"], got.get("typical"))
 
 
 #: How many of the closest candidates by sample have their worst case searched for "closest".
@@ -59,26 +67,42 @@ class Verifier:
             self._memo[key] = None if model is None else self._search(model, band)
         return self._memo[key]
 
-    def _search(self, model: Any, band: str) -> Found | None:
-        key = json.dumps(
+    def known(self, c: Candidate, band: str) -> Found | None:
+        """`c`'s worst case on `band` where a report searched it already (kept in the cache),
+        else None: nothing is searched."""
+        key = (c.label, c.params, band)
+        if key not in self._memo:
+            model = c.build() if c.build is not None else None
+            cached = None if model is None else _cache.read("worst", self._key(model, band))
+            if cached is None:
+                return None
+            self._memo[key] = _decode(cached)
+        return self._memo[key]
+
+    def _key(self, model: Any, band: str) -> str:
+        return json.dumps(
             {
                 "model": type(model).__name__,
                 "params": {k: np.asarray(v).tolist() for k, v in model.params().items()},
                 "light": self.cfg.emitter.to_dict(),
                 "band": band,
+                "typical": "p95, worst_case's default sample",
             },
             sort_keys=True,
         )
+
+    def _search(self, model: Any, band: str) -> Found | None:
+        key = self._key(model, band)
         cached = _cache.read("worst", key)
         if cached is not None:
-            got = json.loads(cached)
-            return None if got is None else Found(got["error"], got["where"])
+            return _decode(cached)
         try:
-            w = worst_case(model, self.cfg.emitter, band, typical_n=0)
-            found = Found(float(w.error), w.where())
+            w = worst_case(model, self.cfg.emitter, band)
+            found = Found(float(w.error), w.where(), float(w.typical))
         except BadValueError:
             found = None
-        entry = None if found is None else {"error": found.error, "where": found.place}
+        entry = None if found is None else {"error": found.error, "where": found.place,
+                                             "typical": found.typical}  # fmt: skip
         _cache.write("worst", key, json.dumps(entry).encode())
         return found
 
