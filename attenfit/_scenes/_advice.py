@@ -168,24 +168,49 @@ class Recommendation:
             "area": None if self.area is None else self.area.to_dict(),
         }
 
-    def to_markdown(self) -> str:
-        """A human-readable report: verdict, the winner's shader code, a table of every family."""
+    def to_markdown(self, *, together: bool = False) -> str:
+        """A human-readable report: verdict, the winner's shader code, a table of every family.
+
+        `together`: a section of a scene file's answer, whose headline is per light (its
+        per-light choices): this one is titled as the one family for all lights together,
+        its verdict not a headline, its headings one level down."""
         s = self.scene
-        title = s.name or s.source
-        lines = [f"# Recommendation for {title}", ""]
-        if s.description:
-            lines += [s.description.strip(), ""]
-        lines += [f"**{self.summary()}**", ""]
-        floor = f", error floor {pct(s.error_floor)} of each light's peak" if s.error_floor else ""
-        cons = [
-            c
-            for c, on in (
-                ("reach 0 at the range", s.reach_zero_at_range),
-                (f"{s.precision} shading", s.precision != "float64"),
+        if together:
+            lines = ["## All lights together: one family for every light", "",
+                     f"With one family for every light: {self.summary()}.", ""]  # fmt: skip
+        else:
+            lines = [f"# Recommendation for {s.name or s.source}", ""]
+            if s.description:
+                lines += [s.description.strip(), ""]
+            lines += [f"**{self.summary()}**", ""]
+        lines += self._setup_lines()
+        lines += self._pick_lines()
+        if self.area is not None:
+            lines += self.area.markdown()
+        if self.shaders:
+            lines += ["## The winner as GLSL", "", "```glsl", self.shaders["glsl"].rstrip(),
+                      "```", ""]  # fmt: skip
+        lines += self._spot_lines()
+        lines += ["## Every family", "", "| family | status | max error | shader cost | ns/eval | why |",
+                  "|---|---|---|---|---|---|"]  # fmt: skip
+        for c in self.candidates:
+            ns = f"{c.ns_per_eval:.3g}" if c.ns_per_eval is not None else "-"
+            cost = f"{c.shader_cost:g}" if c.shader_cost is not None else "-"
+            lines.append(
+                f"| {c.label} | {c.status} | {pct(c.error)} | {cost} | {ns} | {c.reason} |"
             )
-            if on
-        ]
-        lines += [
+        lines.append("")
+        if together:
+            lines = [f"#{x}" if x.startswith("## ") and i > 0 else x for i, x in enumerate(lines)]
+        return "\n".join(lines)
+
+    def _setup_lines(self) -> list[str]:
+        """The tolerance, constraints and ranking, and what was generated per light."""
+        s = self.scene
+        floor = f", error floor {pct(s.error_floor)} of each light's peak" if s.error_floor else ""
+        cons = [c for c, on in (("reach 0 at the range", s.reach_zero_at_range),
+                                (f"{s.precision} shading", s.precision != "float64")) if on]  # fmt: skip
+        lines = [
             f"Tolerance {pct(s.tolerance)} (max relative error of the irradiance){floor}; "
             f"constraints: {', '.join(cons) or 'none'}. Ranked by the compiled cost of the shader "
             f"form ({self.cost_label or 'not computed'}), then error (equal to 3 digits: fewer "
@@ -202,62 +227,38 @@ class Recommendation:
                 f"| {t['receivers']} | {t['judged']} | {t['d_min']:.4g} | {t['d_max']:.4g} "
                 f"| {t['beyond_range']} | {t['unlit']} |"
             )
-        lines.append("")
+        return [*lines, ""]
+
+    def _pick_lines(self) -> list[str]:
+        """The winner and runner-up (or the closest), with their parameters per light."""
+        lines: list[str] = []
+        radii = [getattr(light, "radius", None) for light in self.scene.lights]
         for label, c in (("Winner", self.winner), ("Runner-up", self.runner_up)):
             if c is None:
                 continue
             note = "" if c.status == "pass" else " (not within tolerance)"
-            lines += [f"## {label}: {c.label}{note}", ""]
-            lines += [
-                f"max error {pct(c.error)}, shader cost {c.shader_cost:g}"
-                + (f", {c.ns_per_eval:.3g} ns/eval measured" if c.ns_per_eval is not None else ""),
-                "",
-            ]
-            lines += _param_lines(c)
-            lines.append("")
+            ns = f", {c.ns_per_eval:.3g} ns/eval measured" if c.ns_per_eval is not None else ""
+            lines += [f"## {label}: {c.label}{note}", "",
+                      f"max error {pct(c.error)}, shader cost {c.shader_cost:g}{ns}", ""]  # fmt: skip
+            lines += [*_param_lines(c, radii), ""]
         if self.winner is None and self.closest is not None:
             c = self.closest
             lines += [f"## Closest: {c.label}", "", f"max error {pct(c.error)}: {c.reason}", ""]
-            lines += _param_lines(c)
-            lines.append("")
-        if self.area is not None:
-            lines += self.area.markdown()
-        if self.shaders:
-            lines += [
-                "## The winner as GLSL",
-                "",
-                "```glsl",
-                self.shaders["glsl"].rstrip(),
-                "```",
-                "",
-            ]
-        if self.directional_fits:
-            lines += [
-                "## Spot falloff fits",
-                "",
-                "| light | variant | umbra (deg) | penumbra (deg) | falloff error | shader cost |",
-                "|---|---|---|---|---|---|",
-            ]
-            for f in self.directional_fits:
-                lines.append(
-                    f"| {f['light']} | {f['variant']} | {f['umbra']:.3f} | {f['penumbra']:.3f} "
-                    f"| {pct(f['error'])} | {f['shader_cost']:g} |"
-                )
-            lines.append("")
-        lines += [
-            "## Every family",
-            "",
-            "| family | status | max error | shader cost | ns/eval | why |",
-            "|---|---|---|---|---|---|",
-        ]
-        for c in self.candidates:
-            ns = f"{c.ns_per_eval:.3g}" if c.ns_per_eval is not None else "-"
-            cost = f"{c.shader_cost:g}" if c.shader_cost is not None else "-"
+            lines += [*_param_lines(c, radii), ""]
+        return lines
+
+    def _spot_lines(self) -> list[str]:
+        if not self.directional_fits:
+            return []
+        lines = ["## Spot falloff fits", "",
+                 "| light | variant | umbra (deg) | penumbra (deg) | falloff error | shader cost |",
+                 "|---|---|---|---|---|---|"]  # fmt: skip
+        for f in self.directional_fits:
             lines.append(
-                f"| {c.label} | {c.status} | {pct(c.error)} | {cost} | {ns} | {c.reason} |"
+                f"| {f['light']} | {f['variant']} | {f['umbra']:.3f} | {f['penumbra']:.3f} "
+                f"| {pct(f['error'])} | {f['shader_cost']:g} |"
             )
-        lines.append("")
-        return "\n".join(lines)
+        return [*lines, ""]
 
     def plot_errors(self, ax=None, *, others: int = 3):
         """Judged error against distance for the winner, runner-up and `others` more; `(fig, ax)`."""
@@ -295,16 +296,36 @@ def _ident(name: str) -> str:
     return f"attenfit_{name}"
 
 
-def _param_lines(c: Candidate) -> list[str]:
+def _param_lines(c: Candidate, radii: list[float | None] | None = None) -> list[str]:
     out = []
     for i, p in enumerate(c.params):
-        vals = ", ".join(f"{k} = {_fmt(v)}" for k, v in p.items()) or "no parameters"
+        radius = radii[i] if radii is not None and i < len(radii) else None
+        vals = ", ".join(param_text(k, v, radius) for k, v in p.items()) or "no parameters"
         spot = ""
         if c.directional_params and i < len(c.directional_params) and c.directional_params[i]:
             dp = c.directional_params[i]
             spot = f"; spot umbra = {dp['umbra']:.4g} deg, penumbra = {dp['penumbra']:.4g} deg"
         out.append(f"- light {i}: {vals}{spot}")
     return out
+
+
+#: A fitted `r` (the sources' light radius) this many times from the light's own radius is a
+#: shape parameter of the curve, and is reported as one.
+SHAPE_RATIO = 2.0
+
+
+def param_text(name: str, value: Any, radius: float | None) -> str:
+    """`name = value`; for a family's `r` (its source's light radius) fitted outside
+    [1/SHAPE_RATIO, SHAPE_RATIO] times the light's `radius`, said to be a shape parameter of
+    the curve, not the light's radius (a 0.08 m bulb's curve may want r = 2.66 m)."""
+    text = f"{name} = {_fmt(value)}"
+    if name != "r" or not radius or not isinstance(value, int | float) or not value > 0:
+        return text
+    ratio = float(value) / float(radius)
+    if 1 / SHAPE_RATIO <= ratio <= SHAPE_RATIO:
+        return text
+    return (f"{text} (a shape parameter of the curve, {ratio:.3g}x the light's radius "
+            f"{radius:g}: not the light's radius)")  # fmt: skip
 
 
 def _fmt(v: Any) -> str:
@@ -331,20 +352,7 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
     import matplotlib  # here, not at the top: a scene without --out draws nothing
     import matplotlib.pyplot as plt
 
-    picks: list[Candidate] = []
-    for c in (rec.winner, rec.runner_up, rec.closest):
-        if c is not None and c not in picks and c.family in rec.curves:
-            picks.append(c)
-    for c in rec.candidates:
-        if len(picks) >= 2 + others + (rec.winner is None):
-            break
-        if (
-            c not in picks
-            and c.family in rec.curves
-            and c.error is not None
-            and math.isfinite(c.error)
-        ):
-            picks.append(c)
+    picks = _picks(rec, others)
     angles = rec.angles
     spots = angles is not None and bool(np.any(np.isfinite(angles)))
     with matplotlib.rc_context({"font.size": 9, "axes.grid": True, "grid.alpha": 0.3}):
@@ -378,31 +386,55 @@ def plot_scene_errors(rec: Recommendation, ax=None, *, others: int = 3):
                     **style)  # fmt: skip
             if ax_spot is not None:
                 ax_spot.plot(angles[on_spot], e[on_spot], **style)
-        for a in (ax, ax_spot):
-            if a is None:
-                continue
-            a.axhline(rec.tolerance, color="k", ls="--", lw=1)
-            a.set_yscale("log")
-            a.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
-        ax.plot([], [], color="k", ls="--", lw=1, label=f"tolerance {pct(rec.tolerance)}")
-        ax.set_xscale("log")
-        from .._report import plain_log_ticks
-
-        for a in (ax, ax_spot):
-            if a is not None:
-                plain_log_ticks(a.yaxis)
-        plain_log_ticks(ax.xaxis)
-        ax.set_xlabel("d / r (distance from the light's centre over its radius)")
-        name = str(rec.scene.name or rec.scene.source).replace("$", r"\$")  # a name, not mathtext
-        title = f"{name}: error at the scene's receivers"
-        if ax_spot is not None:
-            ax.set_title("every light: error against distance")
-            ax_spot.set_xlabel("angle from the spot's axis (degrees)")
-            ax_spot.set_title("spotlights: error against angle")
-            fig.suptitle(title, fontsize=10)
-        else:
-            ax.set_title(title)
-        # outside the data: to the right of the last axes
-        (ax_spot or ax).legend(*ax.get_legend_handles_labels(), fontsize=7,
-                               loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)  # fmt: skip
+        _finish(rec, fig, ax, ax_spot, floor)
     return fig, ax
+
+
+def _picks(rec: Recommendation, others: int) -> list[Candidate]:
+    """The winner, runner-up and closest, then `others` more judged candidates."""
+    picks: list[Candidate] = []
+    for c in (rec.winner, rec.runner_up, rec.closest):
+        if c is not None and c not in picks and c.family in rec.curves:
+            picks.append(c)
+    for c in rec.candidates:
+        if len(picks) >= 2 + others + (rec.winner is None):
+            break
+        if (
+            c not in picks
+            and c.family in rec.curves
+            and c.error is not None
+            and math.isfinite(c.error)
+        ):
+            picks.append(c)
+    return picks
+
+
+def _finish(rec: Recommendation, fig, ax, ax_spot, floor: float) -> None:
+    """The tolerance line, log axes, labels, titles and the legend outside the data."""
+    for a in (ax, ax_spot):
+        if a is None:
+            continue
+        a.axhline(rec.tolerance, color="k", ls="--", lw=1)
+        a.set_yscale("log")
+        a.set_ylabel(f"judged error of the irradiance (< {floor:.0e} drawn at it)")
+    ax.plot([], [], color="k", ls="--", lw=1, label=f"tolerance {pct(rec.tolerance)}")
+    ax.set_xscale("log")
+    from .._report import plain_log_ticks
+
+    for a in (ax, ax_spot):
+        if a is not None:
+            plain_log_ticks(a.yaxis)
+    plain_log_ticks(ax.xaxis)
+    ax.set_xlabel("d / r (distance from the light's centre over its radius)")
+    name = str(rec.scene.name or rec.scene.source).replace("$", r"\$")  # a name, not mathtext
+    title = f"{name}: error at the scene's receivers"
+    if ax_spot is not None:
+        ax.set_title("every light: error against distance")
+        ax_spot.set_xlabel("angle from the spot's axis (degrees)")
+        ax_spot.set_title("spotlights: error against angle")
+        fig.suptitle(title, fontsize=10)
+    else:
+        ax.set_title(title)
+    # outside the data: to the right of the last axes
+    (ax_spot or ax).legend(*ax.get_legend_handles_labels(), fontsize=7,
+                           loc="upper left", bbox_to_anchor=(1.02, 1.0), frameon=False)  # fmt: skip

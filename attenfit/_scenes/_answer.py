@@ -11,7 +11,7 @@ from typing import Any
 
 from .. import _progress
 from .._float64 import in_float64
-from ._advice import Recommendation
+from ._advice import Recommendation, pct
 from ._choices import LightChoice, choices_markdown, light_choices, plot_choices
 from ._files import ImportedScene, load_mesh_scene
 from ._light_fits import light_data
@@ -30,19 +30,25 @@ class FileAnswer:
     choices: tuple[LightChoice, ...]
 
     def summary(self) -> str:
-        """One line: each light's family (and range)."""
+        """The headline, one answer per light: its family (and range), and the error of what
+        is written, the final curve checked against the exact irradiance."""
         parts = []
         for c in self.choices:
             rng = ""
             if c.range is not None and c.range.get("range"):
                 rng = f", range {c.range['range']:.3g} m"
             mark = "" if c.status == "pass" else " (closest, over tolerance)"
-            parts.append(f"{c.name}: {c.family}{mark}{rng}")
+            parts.append(f"{c.name}: {c.family}{mark}{rng}, checked error {pct(c.checked_error)}")
         return "; ".join(parts)
 
     def to_markdown(self) -> str:
+        """The answer per light (the headline), then the one family for all lights together."""
+        head = f"# Answer for {self.imported.path.name}\n\n**{self.summary()}**\n\n"
         return (
-            choices_markdown(self.imported, self.choices) + "\n" + self.recommendation.to_markdown()
+            head
+            + choices_markdown(self.imported, self.choices)
+            + "\n"
+            + self.recommendation.to_markdown(together=True)
         )
 
     def to_dict(self) -> dict[str, Any]:

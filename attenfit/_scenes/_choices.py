@@ -29,7 +29,7 @@ import numpy as np
 from .._curves import Family, get_family
 from .._errors import AttenfitError
 from .._judge import rank
-from ._advice import Candidate, Recommendation, pct
+from ._advice import Candidate, Recommendation, param_text, pct
 from ._engine import Engine
 from ._files import ImportedScene
 from ._light_fits import LightData, _range_param, fit_group, fit_plan, judged_errors, shade
@@ -326,7 +326,8 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for c in choices:
-        params = ", ".join(f"{k} = {_num(v)}" for k, v in c.params.items()) or "-"
+        radius = imported.scene.lights[c.light].radius
+        params = ", ".join(param_text(k, v, radius) for k, v in c.params.items()) or "-"
         if c.spot:
             params += f"; {c.spot['falloff']}: umbra {c.spot['umbra']:.4g}, penumbra {c.spot['penumbra']:.4g} deg"
         rng, saved = "-", "-"
