@@ -98,7 +98,7 @@ def report_decision(inputs: Inputs) -> str:
 
 def area_worst(inputs: Inputs) -> str:
     """Every area model's worst case per light and band, from the judge (docs/area.md)."""
-    from attenfit._report._area_candidates import area_worst_markdown
+    from attenfit._report._area_worst import area_worst_markdown
 
     return area_worst_markdown(inputs.report).rstrip()
 

@@ -134,6 +134,52 @@ def build_report(
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
     classes = resolve_families(families)
+    ds_items = _dataset_items(datasets)
+    _check_size(emitters, ds_items, sweep_n, plane_px, cost)
+    timings: dict[str, float] = {}
+    with jax.enable_x64(True):
+        t = time.perf_counter()
+        configs = _configs(emitters, ds_items, int(sweep_n), int(plane_px), say)
+        timings["truth"] = time.perf_counter() - t
+        t = time.perf_counter()
+        say(f"published: {len(classes)} families x {len(configs)} configurations")
+        pub, models, results, values = _published_rows(classes, configs)
+        timings["published"] = time.perf_counter() - t
+        painter = (
+            _start_prerender(classes, configs, results, models, values)
+            if fitted and figures_early
+            else None
+        )
+        if fitted:
+            t = time.perf_counter()
+            _fitted_rows(classes, configs, pub, models, results, values, say)
+            timings["fit"] = time.perf_counter() - t
+        findings = seed_findings(classes, configs, results, models)
+    if painter is not None:  # often the longest wait of a warm report: say so
+        say("the published figures (drawn in a second thread while the fits ran)")
+    prerendered = painter.result() if painter is not None else {}  # joined before timing costs
+    costs: dict[str, Any] = {}
+    if cost:
+        t = time.perf_counter()
+        say(f"cost: {len(classes)} families")
+        costs = family_costs(
+            [c.name for c in classes],
+            {cls.name: models[(cls.name, configs[0].name, "published")] for cls in classes},
+            measure=cost is True,
+        )
+        timings["cost"] = time.perf_counter() - t
+    meta = _meta(t_start, timings, sweep_n, plane_px)
+    if ceiling:
+        from ._ceiling import ceiling_data
+
+        say("what no distance curve can fix: the ceiling and the area models")
+        meta["ceiling"] = ceiling_data()
+    return Report([c.name for c in classes], configs, results, findings, costs, meta, models,
+                  values, prerendered)  # fmt: skip
+
+
+def _dataset_items(datasets: Any) -> list[tuple[str, Any]]:
+    """The datasets as (name, dataset) pairs, each checked; unnamed ones after their generator."""
     if isinstance(datasets, Mapping):
         ds_items = list(datasets.items())
     else:
@@ -144,6 +190,14 @@ def build_report(
     for name, ds in ds_items:
         _check_name(name)
         check_dataset(name, ds)
+    return ds_items
+
+
+def _check_size(emitters: Any, ds_items: list, sweep_n: int, plane_px: int, cost: Any) -> None:
+    """Refuse a bad `cost`, samplings below 8 and reports over the memory budget, before any
+    work."""
+    if cost not in (True, False, "counts"):
+        raise BadValueError(f"cost must be True, False or 'counts', got {cost!r}")
     if int(sweep_n) < 8 or int(plane_px) < 8:
         raise BadValueError(f"sweep_n and plane_px must be >= 8, got {sweep_n} and {plane_px}")
     n_configs = len(resolve_emitters(emitters)) + len(ds_items)
@@ -153,96 +207,64 @@ def build_report(
         f"{sweep_n}-distance sweeps",
         "a smaller plane_px (--plane-px) or sweep_n (--sweep-n)",
     )
-    timings: dict[str, float] = {}
+
+
+def _configs(emitters, ds_items, sweep_n: int, plane_px: int, say) -> list[Config]:
+    """Every configuration's truth: the emitters' (sweep, plane, receivers), the datasets'."""
     configs: list[Config] = []
-    with jax.enable_x64(True):
-        ems = _as_float64(resolve_emitters(emitters))
-        t = time.perf_counter()
-        for name in ems:
-            _check_name(name)
-        for name, em in ems.items():
-            say(f"truth: {name} ({sweep_n} distances, {plane_px} x {plane_px} plane)")
-            configs.append(emitter_config(name, em, int(sweep_n), int(plane_px)))
-        for name, ds in ds_items:
-            say(f"dataset: {name} ({len(ds)} samples)")
-            configs.append(dataset_config(name, ds, int(sweep_n)))
-        timings["truth"] = time.perf_counter() - t
+    ems = _as_float64(resolve_emitters(emitters))
+    for name in ems:
+        _check_name(name)
+    for name, em in ems.items():
+        say(f"truth: {name} ({sweep_n} distances, {plane_px} x {plane_px} plane)")
+        configs.append(emitter_config(name, em, sweep_n, plane_px))
+    for name, ds in ds_items:
+        say(f"dataset: {name} ({len(ds)} samples)")
+        configs.append(dataset_config(name, ds, sweep_n))
+    return configs
 
-        results: list[dict[str, Any]] = []
-        models: dict[tuple[str, str, str], Any] = {}
-        values: dict[tuple[str, str, str], dict[str, np.ndarray]] = {}
-        t = time.perf_counter()
-        say(f"published: {len(classes)} families x {len(configs)} configurations")
-        pub: dict[tuple[str, str], tuple[dict, str]] = {}
+
+def _published_rows(classes, configs):
+    """Every family with its published parameters on every configuration: the parameters
+    and notes, the models, the result rows and the stored values."""
+    results: list[dict[str, Any]] = []
+    models: dict[tuple[str, str, str], Any] = {}
+    values: dict[tuple[str, str, str], dict[str, np.ndarray]] = {}
+    pub: dict[tuple[str, str], tuple[dict, str]] = {}
+    for cls in classes:
+        for c in configs:
+            params, note = published_params(cls, c.radius, truth_interpolator(c))
+            pub[(cls.name, c.name)] = (params, note)
+            model = cls(**params)
+            models[(cls.name, c.name, "published")] = model
+            results.append(evaluate_row(cls.name, c, "published", model, note=note, store=values))
+    return pub, models, results, values
+
+
+def _fitted_rows(classes, configs, pub, models, results, values, say) -> None:
+    """Fit every family on the sweep configurations (one solve); a plane-only configuration
+    (a dataset image) shows the fits of its emitter kind."""
+    sweep_cfgs = [c for c in configs if c.sweep is not None]
+    say(f"fit: {len(classes)} families x {len(sweep_cfgs)} configurations (one fit_many solve)")
+    _fit_families(classes, sweep_cfgs, pub, models, results, values)
+    for c in configs:
+        if c.sweep is not None:
+            continue
         for cls in classes:
-            for c in configs:
-                truth_at = truth_interpolator(c)
-                params, note = published_params(cls, c.radius, truth_at)
-                pub[(cls.name, c.name)] = (params, note)
-                model = cls(**params)
-                models[(cls.name, c.name, "published")] = model
-                results.append(
-                    evaluate_row(cls.name, c, "published", model, note=note, store=values)
-                )
-        timings["published"] = time.perf_counter() - t
+            src = next((s for s in sweep_cfgs
+                        if s.kind == c.kind and (cls.name, s.name, "fitted") in models), None)  # fmt: skip
+            if src is None:
+                continue
+            m = models[(cls.name, src.name, "fitted")]
+            models[(cls.name, c.name, "fitted")] = m
+            results.append(evaluate_row(cls.name, c, "fitted", m, note=f"fitted on {src.name}",
+                                        store=values))  # fmt: skip
 
-        painter = (
-            _start_prerender(classes, configs, results, models, values)
-            if fitted and figures_early
-            else None
-        )
-        if fitted:
-            t = time.perf_counter()
-            sweep_cfgs = [c for c in configs if c.sweep is not None]
-            say(
-                f"fit: {len(classes)} families x {len(sweep_cfgs)} configurations (one fit_many solve)"
-            )
-            _fit_families(classes, sweep_cfgs, pub, models, results, values)
-            # a plane-only configuration (a dataset image) shows the fits of its emitter kind
-            for c in configs:
-                if c.sweep is None:
-                    for cls in classes:
-                        src = next(
-                            (
-                                s
-                                for s in sweep_cfgs
-                                if s.kind == c.kind and (cls.name, s.name, "fitted") in models
-                            ),
-                            None,
-                        )
-                        if src is not None:
-                            m = models[(cls.name, src.name, "fitted")]
-                            models[(cls.name, c.name, "fitted")] = m
-                            results.append(
-                                evaluate_row(
-                                    cls.name,
-                                    c,
-                                    "fitted",
-                                    m,
-                                    note=f"fitted on {src.name}",
-                                    store=values,
-                                )
-                            )
-            timings["fit"] = time.perf_counter() - t
 
-        findings = seed_findings(classes, configs, results, models)
-    if painter is not None:  # often the longest wait of a warm report: say so
-        say("the published figures (drawn in a second thread while the fits ran)")
-    prerendered = painter.result() if painter is not None else {}  # joined before timing costs
-    costs: dict[str, Any] = {}
-    if cost not in (True, False, "counts"):
-        raise BadValueError(f"cost must be True, False or 'counts', got {cost!r}")
-    if cost:
-        t = time.perf_counter()
-        say(f"cost: {len(classes)} families")
-        costs = family_costs(
-            [c.name for c in classes],
-            {cls.name: models[(cls.name, configs[0].name, "published")] for cls in classes},
-            measure=cost is True,
-        )
-        timings["cost"] = time.perf_counter() - t
+def _meta(t_start: float, timings: dict[str, float], sweep_n: int, plane_px: int) -> dict:
+    import jax
 
-    meta = {
+    return {
         "version": __version__,
         "created": _dt.datetime.now(_dt.UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "build_seconds": time.perf_counter() - t_start,
@@ -253,22 +275,6 @@ def build_report(
         "jax": jax.__version__,
         "backend": jax.default_backend(),
     }
-    if ceiling:
-        from ._ceiling import ceiling_data
-
-        say("what no distance curve can fix: the ceiling and the area models")
-        meta["ceiling"] = ceiling_data()
-    return Report(
-        [c.name for c in classes],
-        configs,
-        results,
-        findings,
-        costs,
-        meta,
-        models,
-        values,
-        prerendered,
-    )
 
 
 class _Painter:
@@ -326,7 +332,6 @@ def _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar) -> None:
     (weights 0 beyond). A family with nothing free keeps its published parameters. If the
     combined solve fails as a whole, each row is marked failed with the error.
     """
-
     groups: dict[int, list[Config]] = {}
     for c in sweep_cfgs:
         groups.setdefault(int(c.sweep.d.size), []).append(c)
@@ -338,67 +343,57 @@ def _fit_rows(classes, sweep_cfgs, pub, models, results, values, bar) -> None:
                 start = pub[(cls.name, c.name)][0]
                 rg = _fit_range(cls, start)
                 if not shape_free(cls):
-                    model = models[(cls.name, c.name, "published")]
-                    models[(cls.name, c.name, "fitted")] = model
-                    note = (
-                        f"nothing to fit ({', '.join(range_params(cls))} is the range, kept "
-                        "fixed): fitted = published"
-                        if range_params(cls)
-                        else "no parameter: fitted = published"
-                    )
-                    results.append(
-                        evaluate_row(cls.name, c, "fitted", model, note=note, store=values)
-                    )
+                    _keep_published(cls, c, models, results, values)
                     bar.update()
                     continue
-                w = (
-                    (c.sweep.d <= 0.5 * rg).astype(np.float64)
-                    if rg is not None
-                    else np.ones_like(c.sweep.d)
-                )
-                problems.append((cls, start, c.sweep.d, c.sweep.truth, w))
+                d = c.sweep.d
+                w = (d <= 0.5 * rg).astype(np.float64) if rg is not None else np.ones_like(d)
+                problems.append((cls, start, d, c.sweep.truth, w))
                 keys.append((cls, c, rg))
         if not problems:
             continue
         try:
-            outs = fit_all(problems, fixed=fixed)
+            outs, error = fit_all(problems, fixed=fixed), ""
         except Exception as exc:  # e.g. a user's family that cannot be traced under a switch
-            outs = [None] * len(problems)
-            error = f"{type(exc).__name__}: {exc}"
-
-        def start_of(cls, c):
-            return pub[(cls.name, c.name)][0]
-
+            outs, error = [None] * len(problems), f"{type(exc).__name__}: {exc}"
         for (cls, c, rg), out in zip(keys, outs, strict=True):
             bar.update()
-            if out is None:
-                results.append(failed_row(cls.name, c, f"fit error: {error}"))
-                continue
-            params, info = out
-            if params is None:
-                results.append(
-                    failed_row(
-                        cls.name, c, f"fit did not converge: {_why(info, start_of(cls, c))}", info
-                    )
-                )
-                continue
-            try:
-                model = cls(**params)
-            except Exception as exc:
-                results.append(failed_row(cls.name, c, f"fitted parameters rejected: {exc}", info))
-                continue
-            models[(cls.name, c.name, "fitted")] = model
-            note = f"free: {', '.join(info['free']) or 'none'}"
-            if range_params(cls):
-                note += f"; {', '.join(range_params(cls))} fixed (the range)"
-            moved = _moved(info, start_of(cls, c))
-            if moved:  # converged where the loss reached rounding level, the optimum at a limit
-                note += f"; {'; '.join(moved)}: no finite optimum"
-            results.append(
-                evaluate_row(
-                    cls.name, c, "fitted", model, note=note, fit=info, store=values, range_=rg
-                )
-            )
+            start = pub[(cls.name, c.name)][0]
+            results.append(_fitted_row(cls, c, rg, out, error, start, models, values))
+
+
+def _keep_published(cls, c, models, results, values) -> None:
+    """A family with nothing free: its fitted row is its published model."""
+    model = models[(cls.name, c.name, "published")]
+    models[(cls.name, c.name, "fitted")] = model
+    note = (
+        f"nothing to fit ({', '.join(range_params(cls))} is the range, kept fixed): "
+        "fitted = published"
+        if range_params(cls)
+        else "no parameter: fitted = published"
+    )
+    results.append(evaluate_row(cls.name, c, "fitted", model, note=note, store=values))
+
+
+def _fitted_row(cls, c, rg, out, error: str, start, models, values) -> dict[str, Any]:
+    """The result row of one fit (`out`: `(params, info)`, None when the solve failed)."""
+    if out is None:
+        return failed_row(cls.name, c, f"fit error: {error}")
+    params, info = out
+    if params is None:
+        return failed_row(cls.name, c, f"fit did not converge: {_why(info, start)}", info)
+    try:
+        model = cls(**params)
+    except Exception as exc:
+        return failed_row(cls.name, c, f"fitted parameters rejected: {exc}", info)
+    models[(cls.name, c.name, "fitted")] = model
+    note = f"free: {', '.join(info['free']) or 'none'}"
+    if range_params(cls):
+        note += f"; {', '.join(range_params(cls))} fixed (the range)"
+    moved = _moved(info, start)
+    if moved:  # converged where the loss reached rounding level, the optimum at a limit
+        note += f"; {'; '.join(moved)}: no finite optimum"
+    return evaluate_row(cls.name, c, "fitted", model, note=note, fit=info, store=values, range_=rg)
 
 
 def _moved(info: Mapping[str, Any], start: Mapping[str, Any]) -> list[str]:

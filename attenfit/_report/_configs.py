@@ -208,86 +208,46 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
     """The sweep and the plane of one emitter, with the exact truth from one irradiance call."""
     kind = emitter_kind(emitter)
     c, axis, r = geometry(emitter)
-    rng = published_range(r)
     # sweep: facing receivers along the axis
     lo = 1e-3 * r if kind == "disk" else r * (1.0 + 1e-9)
     dd = np.geomspace(lo, 1e3 * r, n)
     sweep_p = c[None, :] + dd[:, None] * axis[None, :]
     # d -> 0+ for the disk, evaluated at 1e-7 r (relative change from the limit < 1e-14)
     zero_p = (c + 1e-7 * r * axis)[None, :]
-    # plane
-    if kind == "disk":
-        h, half = 0.25 * r, 4.0 * r
-        what = f"a plane {h:g} m (r/4) below the disk, facing it"
-    else:  # touching: 1e-9 r above contact, since a receiver on the sphere is invalid
-        h, half = r * (1.0 + 1e-9), 1.2 * rng
-        what = f"a plane touching the {kind} (its centre r = {r:g} m above it)"
-    u, v = frame(axis)
-    origin = c + h * axis
-    xs = np.linspace(-half, half, px)
-    X, Y = np.meshgrid(xs, xs)
-    plane_p = origin[None, None, :] + X[..., None] * u + Y[..., None] * v
-    rho_max = max(1e3 * h, 3.0 * rng)
-    rho = np.concatenate([[0.0], np.geomspace(1e-3 * h, rho_max, RADIAL_N - 1)])
-    radial_p = origin[None, :] + rho[:, None] * u[None, :]
+    lay = _plane_layout(kind, c, axis, r, px)
     floor_p, floor_n, floor_what = _floor_receivers(kind, c, axis, r)
     rand_p, rand_n, facing_n, rand_what = _random_receivers(kind, emitter, c, axis, r)
     parts = exact_truth_parts(
         emitter,
-        [
-            (sweep_p, -axis),
-            (zero_p, -axis),
-            (plane_p, -axis),
-            (radial_p, -axis),
-            (floor_p, floor_n),
-            (rand_p, rand_n),
-            (rand_p, facing_n),
-        ],
-    )
+        [(sweep_p, -axis), (zero_p, -axis), (lay["plane_p"], -axis), (lay["radial_p"], -axis),
+         (floor_p, floor_n), (rand_p, rand_n), (rand_p, facing_n)],
+    )  # fmt: skip
     (sE, sd, sw), (zE, _, zw), (pE, pd, pw), (rE, rd, rw) = parts[:4]
     (fE, fd, fw), (qE, qd, qw), (qF, _, _) = parts[4:]
-    truth = sE / sw
-    truth0 = float(zE[0] / zw[0]) if kind == "disk" else None
     what_sweep = {
         "sphere": "receivers facing the centre, from contact (d = r) to 1000 r",
         "disk": "receivers on the axis facing the disk, from 0.001 r to 1000 r",
         "capsule": "receivers on the perpendicular bisector facing the segment, from contact to 1000 r",
     }[kind]
-    sweep = Sweep(
-        d=sd,
-        truth=truth,
-        stderr=None,
-        truth0=truth0,
-        truth_max=float(np.nanmax(truth))
-        if truth0 is None
-        else max(truth0, float(np.nanmax(truth))),
-        description=f"{what_sweep}; {n} log-spaced distances",
-    )
+    truth = sE / sw
+    truth0 = float(zE[0] / zw[0]) if kind == "disk" else None
+    top = float(np.nanmax(truth)) if truth0 is None else max(truth0, float(np.nanmax(truth)))
+    sweep = Sweep(d=sd, truth=truth, stderr=None, truth0=truth0, truth_max=top,
+                  description=f"{what_sweep}; {n} log-spaced distances")  # fmt: skip
+    half, rho_max = lay["half"], lay["rho_max"]
     plane = Plane(
-        E=pE.reshape(px, px),
-        dist=pd.reshape(px, px),
-        weight=pw.reshape(px, px),
-        extent=(-half, half, -half, half),
-        xy=(X, Y),
-        rho=rho,
-        rdist=rd,
-        rweight=rw,
+        E=pE.reshape(px, px), dist=pd.reshape(px, px), weight=pw.reshape(px, px),
+        extent=(-half, half, -half, half), xy=lay["xy"], rho=lay["rho"], rdist=rd, rweight=rw,
         rE=rE,
         description=(
-            f"{what}; image {px} x {px} over a {2 * half:.3g} m square; energy over a disc of "
-            f"radius {rho_max:.3g} m ({RADIAL_N} samples along a ray)"
+            f"{lay['what']}; image {px} x {px} over a {2 * half:.3g} m square; energy over a "
+            f"disc of radius {rho_max:.3g} m ({RADIAL_N} samples along a ray)"
         ),
-        points=plane_p.reshape(-1, 3),
-        normals=np.broadcast_to(-axis, (px * px, 3)),
-    )
+        points=lay["plane_p"].reshape(-1, 3), normals=np.broadcast_to(-axis, (px * px, 3)),
+    )  # fmt: skip
 
-    def gap(pts: np.ndarray, dd: np.ndarray) -> np.ndarray:
-        if kind != "disk":
-            return np.maximum(dd - r, 0.0)
-        rel = np.reshape(pts, (-1, 3)) - c
-        z = rel @ axis
-        q = np.linalg.norm(rel - z[:, None] * axis, axis=1)
-        return np.hypot(z, np.maximum(q - r, 0.0))
+    def gap(pts: np.ndarray, d: np.ndarray) -> np.ndarray:
+        return _gap(kind, c, axis, r, pts, d)
 
     receivers = {
         "facing": Receivers(
@@ -301,6 +261,41 @@ def emitter_config(name: str, emitter: Any, n: int, px: int) -> Config:
         ),
     }
     return Config(name, kind, emitter, r, sweep, plane, "attenfit.irradiance (exact)", receivers)
+
+
+def _plane_layout(kind: str, c, axis, r: float, px: int) -> dict[str, Any]:
+    """The plane of the images: its pixels' points, and a ray of it for the energy."""
+    if kind == "disk":
+        h, half = 0.25 * r, 4.0 * r
+        what = f"a plane {h:g} m (r/4) below the disk, facing it"
+    else:  # touching: 1e-9 r above contact, since a receiver on the sphere is invalid
+        h, half = r * (1.0 + 1e-9), 1.2 * published_range(r)
+        what = f"a plane touching the {kind} (its centre r = {r:g} m above it)"
+    u, v = frame(axis)
+    origin = c + h * axis
+    xs = np.linspace(-half, half, px)
+    X, Y = np.meshgrid(xs, xs)
+    rho_max = max(1e3 * h, 3.0 * published_range(r))
+    rho = np.concatenate([[0.0], np.geomspace(1e-3 * h, rho_max, RADIAL_N - 1)])
+    return {
+        "what": what,
+        "half": half,
+        "xy": (X, Y),
+        "plane_p": origin[None, None, :] + X[..., None] * u + Y[..., None] * v,
+        "rho": rho,
+        "rho_max": rho_max,
+        "radial_p": origin[None, :] + rho[:, None] * u[None, :],
+    }
+
+
+def _gap(kind: str, c, axis, r: float, pts: np.ndarray, dd: np.ndarray) -> np.ndarray:
+    """The receivers' distance from the light's surface (a disk: to its nearest point)."""
+    if kind != "disk":
+        return np.maximum(dd - r, 0.0)
+    rel = np.reshape(pts, (-1, 3)) - c
+    z = rel @ axis
+    q = np.linalg.norm(rel - z[:, None] * axis, axis=1)
+    return np.hypot(z, np.maximum(q - r, 0.0))
 
 
 def _geometry(points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

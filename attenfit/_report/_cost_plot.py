@@ -208,13 +208,15 @@ def _panel_errors(report, cfg) -> tuple[dict[str, Any], dict[str, dict[str, floa
 
 def decision_cost_figure(report) -> Any:
     """The decision's error against the compiled cost, a panel per light and band (see the
-    module docstring), or None without lights judged on receivers or costs."""
+    module docstring), or None without lights judged on receivers or measured costs."""
     import matplotlib as mpl
 
     from . import _plots as plots
     from ._metrics import GAP_BAND_LABELS, GAP_BANDS
 
     lights = [c for c in report.configs if c.receivers]
+    if not report.costs or not lights:  # costs not measured: no figure, as before
+        return None
     data = [(cfg, *_panel_errors(report, cfg)) for cfg in lights]
     names = sorted({n for _, c, e, _ in data for band in e.values() for n in band},
                    key=lambda n: (any(c.get(n) and c[n].kind != "distance curve"

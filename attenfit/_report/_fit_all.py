@@ -153,38 +153,11 @@ def fit_all(
     templates = {cls: cls(**problems[[p[0] for p in problems].index(cls)][1]) for cls in classes}
     fixed = fixed or {}
     layouts = {cls: _layout(cls, templates[cls], fixed.get(cls, ())) for cls in classes}
-    K = max(
-        [1]
-        + [
-            sum(_size(s) for s, f in zip(lay.shapes, lay.free, strict=True) if f)
-            for lay in layouts.values()
-        ]
-    )
-    C = max(
-        [1]
-        + [
-            sum(_size(s) for s, f in zip(lay.shapes, lay.free, strict=True) if not f)
-            for lay in layouts.values()
-        ]
-    )
-
+    K = max([1] + [_count(lay, True) for lay in layouts.values()])
+    C = max([1] + [_count(lay, False) for lay in layouts.values()])
     model = _Switch(classes, templates, layouts)
-    us, cs, fams = [], [], []
-    for cls, start, *_ in problems:
-        lay = layouts[cls]
-        u = np.zeros(K)
-        c = np.zeros(C)
-        for n, shape, kind, isfree, off in zip(
-            lay.names, lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
-        ):
-            v = np.broadcast_to(np.asarray(start[n], np.float64), shape).ravel()
-            if isfree:
-                u[off : off + v.size] = _to_internal(kind, v)
-            else:
-                c[off : off + v.size] = v
-        us.append(u)
-        cs.append(c)
-        fams.append(float(classes.index(cls)))
+    us, cs = zip(*(_packed(layouts[cls], start, K, C) for cls, start, *_ in problems), strict=True)
+    fams = [float(classes.index(cls)) for cls, *_ in problems]
     d = np.stack([p[2] for p in problems])
     target = np.stack([p[3] for p in problems])
     weights = np.stack([p[4] for p in problems])
@@ -199,39 +172,57 @@ def fit_all(
         max_steps=max_steps,
         guess=False,
     )
-    out: list[tuple[dict[str, Any] | None, dict[str, Any]]] = []
-    for i, (cls, *_rest) in enumerate(problems):
-        lay = layouts[cls]
-        fr = res[i]
-        u = np.asarray(res.params["u"][i], np.float64)
-        c = cs[i]
-        fitted: dict[str, Any] = {}
-        for n, shape, kind, isfree, off in zip(
-            lay.names, lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
-        ):
-            v = (
-                _to_param(kind, u[off : off + _size(shape)])
-                if isfree
-                else c[off : off + _size(shape)]
-            ).reshape(shape)
-            fitted[n] = float(v) if shape == () else v
-        ok = bool(fr.converged) and all(np.all(np.isfinite(np.asarray(v))) for v in fitted.values())
-        info = {
-            "converged": ok,
-            "message": fr.message.splitlines()[0] if fr.message else "",
-            "steps": int(fr.steps),
-            "loss": float(fr.loss),
-            "free": [n for n, f in zip(lay.names, lay.free, strict=True) if f],
-            "at_bound": [
-                n
-                for n, kind, isfree in zip(lay.names, lay.kinds, lay.free, strict=True)
-                if isfree and _on_bound(kind, np.asarray(fitted[n], np.float64))
-            ],
-            "solver": "attenfit.fit_many, levenberg_marquardt, relative loss (all families in one solve)",
-            "last_params": {
-                k: (v if isinstance(v, float) else np.asarray(v).tolist())
-                for k, v in fitted.items()
-            },
-        }
-        out.append((fitted if ok else None, info))
-    return out
+    return [
+        _unpacked(layouts[cls], res[i], np.asarray(res.params["u"][i], np.float64), cs[i])
+        for i, (cls, *_rest) in enumerate(problems)
+    ]
+
+
+def _count(lay: Any, free: bool) -> int:
+    """How many numbers a layout's free (or fixed) parameters take."""
+    return sum(_size(s) for s, f in zip(lay.shapes, lay.free, strict=True) if f == free)
+
+
+def _packed(lay: Any, start: Mapping[str, Any], K: int, C: int) -> tuple[np.ndarray, np.ndarray]:
+    """A problem's start values packed: the free ones (internal form) into `u` (length K),
+    the fixed ones into `c` (length C)."""
+    u, c = np.zeros(K), np.zeros(C)
+    for n, shape, kind, isfree, off in zip(
+        lay.names, lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
+    ):
+        v = np.broadcast_to(np.asarray(start[n], np.float64), shape).ravel()
+        if isfree:
+            u[off : off + v.size] = _to_internal(kind, v)
+        else:
+            c[off : off + v.size] = v
+    return u, c
+
+
+def _unpacked(lay: Any, fr: Any, u: np.ndarray, c: np.ndarray):
+    """One problem's result: `(params or None, info)` from its fit result and packed values."""
+    fitted: dict[str, Any] = {}
+    for n, shape, kind, isfree, off in zip(
+        lay.names, lay.shapes, lay.kinds, lay.free, lay.offsets, strict=True
+    ):
+        v = (
+            _to_param(kind, u[off : off + _size(shape)]) if isfree else c[off : off + _size(shape)]
+        ).reshape(shape)
+        fitted[n] = float(v) if shape == () else v
+    ok = bool(fr.converged) and all(np.all(np.isfinite(np.asarray(v))) for v in fitted.values())
+    info = {
+        "converged": ok,
+        "message": fr.message.splitlines()[0] if fr.message else "",
+        "steps": int(fr.steps),
+        "loss": float(fr.loss),
+        "free": [n for n, f in zip(lay.names, lay.free, strict=True) if f],
+        "at_bound": [
+            n
+            for n, kind, isfree in zip(lay.names, lay.kinds, lay.free, strict=True)
+            if isfree and _on_bound(kind, np.asarray(fitted[n], np.float64))
+        ],
+        "solver": "attenfit.fit_many, levenberg_marquardt, relative loss (all families in one solve)",
+        "last_params": {
+            k: (v if isinstance(v, float) else np.asarray(v).tolist()) for k, v in fitted.items()
+        },
+    }
+    return (fitted if ok else None, info)
