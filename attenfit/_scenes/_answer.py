@@ -11,7 +11,7 @@ from typing import Any
 
 from .. import _progress
 from .._float64 import in_float64
-from ._advice import Recommendation
+from ._advice import Recommendation, pct
 from ._choices import LightChoice, choices_markdown, light_choices, plot_choices
 from ._files import ImportedScene, load_mesh_scene
 from ._light_fits import light_data
@@ -37,6 +37,9 @@ class FileAnswer:
             if c.range is not None and c.range.get("range"):
                 rng = f", range {c.range['range']:.3g} m"
             mark = "" if c.status == "pass" else " (closest, over tolerance)"
+            if c.engine_error is not None:
+                word = "" if c.status == "pass" else "fail, closest "
+                mark = f" ({word}{pct(c.engine_error)} as the engine renders it)"
             parts.append(f"{c.name}: {c.family}{mark}{rng}")
         return "; ".join(parts)
 
