@@ -287,14 +287,41 @@ def _trade(imported, x, light, pick, spot_model, i) -> tuple[dict[str, Any] | No
     return trade, refit
 
 
-def _check_range(imported, i: int, model: Family, x: LightData) -> None:
-    """A range that ran away in a fit (not finite, or past 1e4 x the farthest receiver) is
-    refused, naming the file and the light."""
+def _ran_away(model: Family, x: LightData) -> float | None:
+    """The range of `model` if it ran away in a fit (not finite, or past 1e4 x the farthest
+    receiver), else None."""
     rp = _range_param(type(model))
     if rp is None:
-        return
+        return None
     R = float(np.asarray(model.params()[rp]))
-    if not math.isfinite(R) or R > 1e4 * float(x.d.max()):
+    return R if not math.isfinite(R) or R > 1e4 * float(x.d.max()) else None
+
+
+def _pin_range(imported, i: int, model: Family, x: LightData, spot_model) -> Family:
+    """`model` refitted with its range pinned at the scene's extent (`_SPAN` x the farthest
+    receiver) when its fitted range ran away; a range that still runs away is refused,
+    naming the file and the light (`_check_range`)."""
+    if _ran_away(model, x) is None:
+        return model
+    scene, engine = imported.scene, imported.engine
+    pins = engine.fixed.get(model.name) if engine is not None else None
+    vis = np.ones(len(x.d), bool)
+    g = _g(spot_model, x, scene.precision)
+    try:
+        (refit,), _ = _fit_at(
+            type(model), x, vis, [_SPAN * float(x.d.max())], pins, scene.precision, g, 2
+        )
+    except AttenfitError:
+        refit = model
+    _check_range(imported, i, refit, x)
+    return refit
+
+
+def _check_range(imported, i: int, model: Family, x: LightData) -> None:
+    """A range that ran away in a fit is refused, naming the file and the light."""
+    R = _ran_away(model, x)
+    if R is not None:
+        rp = _range_param(type(model))
         raise BadValueError(
             f"{imported.path.name}: light {imported.names[i]!r}: the fitted {model.name} "
             f"range {rp} = {R:.3g} ran away (the farthest receiver is {float(x.d.max()):.3g} m); "
@@ -314,12 +341,13 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
         )  # fmt: skip
     spot_model, spot = _spot_of(pick, i, light, engine)
     trade, final = None, pick.models[i]
-    if _is_windowed(pick) and (status == "pass" or imported.threshold is not None):
+    no_range = imported.published_ranges[i] is None and engine is not None
+    if _is_windowed(pick) and (status == "pass" or imported.threshold is not None or no_range):
         trade, refit = _trade(imported, x, light, pick, spot_model, i)
         if refit is not None:
             final = refit
             status = "pass"
-    _check_range(imported, i, final, x)
+    final = _pin_range(imported, i, final, x, spot_model)
     # the check: the final curve against the exact irradiance at the judged receivers
     keep = np.ones(len(x.d), bool)
     if trade is not None and trade.get("range"):

@@ -4,8 +4,8 @@ and the best settings the engine allows when its first mapping is not within tol
 `engine_verdict(engine, light, props, x, tolerance)`: the light properties attenfit hands
 out (`Engine.properties`) rendered by the engine's witness at the light's judged receivers
 `x`, with the scene's judged error. The worst case over the scene's receivers (a finite set)
-is their largest error. The spot cone's properties that the engine exposes
-(`EngineWitness.cone_props`) are then moved within their bounds (Nelder-Mead on the largest
+is their largest error. When that is over the tolerance, the spot cone's properties that
+the engine exposes (`EngineWitness.cone_props`) are moved within their bounds (Nelder-Mead on the largest
 error, from the mapping and from a few starts across the bounds), and a light size the
 engine feeds into its diffuse term (Godot's `light_size`, Unreal's `SourceRadius`) is tried
 at 0 and at the light's radius: the settings kept are the ones the engine renders closest,
@@ -132,7 +132,7 @@ def engine_verdict(
     best, best_e = props, mapped
     for p in tries:
         e = _worst(w, p, light, x, geo)
-        if renders_as_spot(light) and w.cone_props and e > 0.5 * tolerance:
+        if renders_as_spot(light) and w.cone_props and e > tolerance:
             p, e = _cone_search(w, p, light, x, geo)
         if e < best_e or (e == best_e and p is tries[0]):
             best, best_e = p, e
