@@ -1,4 +1,4 @@
-"""The engine witness (`attenfit._judge._engines`): each engine's shading against the
+"""The engine witness (`attenfit._judge._engine_shading`): each engine's shading against the
 engine's own code, transcribed here line by line from the cited file and function (not
 from the witness), and engine answers judged through it (`attenfit._scenes._engine_fit`)."""
 

@@ -42,7 +42,7 @@ class Engine:
 
     @property
     def witness(self) -> type[EngineWitness]:
-        """The engine's own shading (`attenfit._judge._engines`), which judges its answers."""
+        """The engine's own shading (`attenfit._judge._engine_shading`), which judges its answers."""
         return get_witness(self.name)
 
 

@@ -1,4 +1,4 @@
-"""An engine answer judged through the engine's own shading (`attenfit._judge._engines`),
+"""An engine answer judged through the engine's own shading (`attenfit._judge._engine_shading`),
 and the best settings the engine allows when its first mapping is not within tolerance.
 
 `engine_verdict(engine, light, props, x, tolerance)`: the light properties attenfit hands

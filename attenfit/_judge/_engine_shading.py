@@ -248,6 +248,12 @@ class _ScaleOffsetCone(EngineWitness):
     """The `saturate(c scale + offset)^2` cone shared by Filament, Bevy, Unity and glTF."""
 
     cone_floor: ClassVar[float]
+    #: the floor of d^2 in the engine's 1/d^2 (a punctual light's centimetre, or HALF_MIN)
+    d2_floor: ClassVar[float] = 1e-4
+
+    @classmethod
+    def distance(cls, d, props):
+        return _window4(d, float(props[cls.range_prop])) / np.maximum(d * d, cls.d2_floor)
 
     @classmethod
     @abc.abstractmethod
@@ -277,10 +283,6 @@ class FilamentWitness(_ScaleOffsetCone):
     range_prop = "falloff"
 
     @classmethod
-    def distance(cls, d, props):
-        return _window4(d, float(props["falloff"])) / np.maximum(d * d, 1e-4)
-
-    @classmethod
     def cone_cosines(cls, props):
         inner = min(abs(float(props.get("spot_inner", 0.0))), math.pi / 2)
         outer = min(abs(float(props["spot_outer"])), math.pi / 2)
@@ -303,10 +305,6 @@ class BevyWitness(_ScaleOffsetCone):
     range_prop = "range"
 
     @classmethod
-    def distance(cls, d, props):
-        return _window4(d, float(props["range"])) / np.maximum(d * d, 1e-4)
-
-    @classmethod
     def cone_cosines(cls, props):
         return _f32(math.cos(float(props.get("inner_angle", 0.0)))), _f32(
             math.cos(float(props["outer_angle"]))
@@ -327,10 +325,7 @@ class UnityWitness(_ScaleOffsetCone):
     cone_props = (("innerSpotAngle", 0.0, 179.0), ("spotAngle", 1.0, 179.0))
     cone_floor = 0.001
     range_prop = "range"
-
-    @classmethod
-    def distance(cls, d, props):
-        return _window4(d, float(props["range"])) / np.maximum(d * d, 2.0**-14)
+    d2_floor = 2.0**-14
 
     @classmethod
     def cone_cosines(cls, props):
