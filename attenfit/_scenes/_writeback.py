@@ -1,7 +1,7 @@
 """A copy of a USD or glTF scene with each light's answer written in (`--write-back OUT`).
 
 * glTF (`OUT.gltf`): each `KHR_lights_punctual` light gets the chosen `range` (the extension's
-  own property; a light shared by several nodes gets the largest of their ranges) and the
+  own property; the published range was one candidate of the choice, not a bound) and the
   answer in `extras.attenfit` (family, parameters, errors, engine properties). Buffers and
   image files are embedded as `data:` URIs so the copy stands alone wherever it is written;
   only files inside the scene's folder are read (`_refs`): a reference outside it is refused
@@ -53,6 +53,8 @@ def _answer(c: LightChoice, engine: str | None) -> dict[str, Any]:
         "error": c.error,
         "checked_error": c.checked_error,
     }
+    if c.engine_error is not None:
+        out["engine_error"] = c.engine_error
     if c.spot is not None:
         out["spot"] = dict(c.spot)
     if c.range is not None and c.range.get("range") is not None:
@@ -113,7 +115,7 @@ def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) 
             raise BadValueError(f"{where}.attenfit: is not a list; attenfit appends its answers")
         R = c.range.get("range") if c.range is not None else None
         if R is not None and R > 0 and math.isfinite(R):
-            d["range"] = max(float(R), float(d.get("range", 0.0)))
+            d["range"] = float(R)  # the chosen range (the published one was a candidate)
         answers.append({"node_light": c.name, **_answer(c, engine)})
     return json.dumps(doc, indent=1) + "\n"
 
