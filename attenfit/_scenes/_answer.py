@@ -107,7 +107,7 @@ def answer_file(path: str | os.PathLike, *, measure: bool = False, **options: An
     """Read the USD or glTF scene `path` and answer it per light.
 
     `options` are those of `load_mesh_scene` (side, tolerance, precision, threshold,
-    samples, radius, engine, strict, seed, notice). Computed in float64 whatever the caller's
+    samples, radius, engine, strict, seed, time, notice). Computed in float64 whatever the caller's
     `jax_enable_x64`.
     """
     imported = load_mesh_scene(path, **options)
