@@ -90,15 +90,12 @@ _F32 = np.finfo(np.float32)
 def scalar_params(model: Any) -> dict[str, float]:
     """A model's parameters (a family's or an area model's) as finite float32 scalars: one
     problem, not a batch (`BadValueError` for a batch or a value float32 cannot hold)."""
-    from .._curves import AreaModel
-
-    noun = "area model" if isinstance(model, AreaModel) else "family"
     out = {}
     for p, v in model.params().items():
         value = np.asarray(v, np.float64)
         if value.ndim:
             raise BadValueError(
-                f"{noun} {model.name!r} has parameter {p} of shape {value.shape}; export "
+                f"{model.kind} {model.name!r} has parameter {p} of shape {value.shape}; export "
                 "and cost take one set of parameters, not a batch: pick one problem"
             )
         out[p] = float32_param(model.name, p, float(value))

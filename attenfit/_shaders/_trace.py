@@ -23,6 +23,7 @@ import numpy as np
 
 from .._curves import Family, float32_family
 from .._errors import BadTypeError, BadValueError
+from ._model import as_family
 from ._program import Atom, Const, Op, Program, UnsupportedPrimitiveError, Var
 
 __all__ = ["PRIMITIVES", "trace"]
@@ -493,10 +494,7 @@ def trace(family: Family, *, float64: bool = False) -> Program:
     on), its constants and `values` kept in float64, for evaluating it in float64 on the host
     (`Program.evaluate_numpy` and shader code are float32).
     """
-    if isinstance(family, type) and issubclass(family, Family):
-        family = family()
-    if not isinstance(family, Family):
-        raise BadTypeError(f"expected an attenfit.Family instance, got {type(family).__name__}")
+    family = as_family(family)
     if float64 and not jax.config.jax_enable_x64:
         raise BadValueError("trace(float64=True) needs JAX's x64 mode (jax_enable_x64)")
     dtype = np.float64 if float64 else np.float32

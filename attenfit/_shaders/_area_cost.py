@@ -1,5 +1,5 @@
-"""What each area model's shader form costs compiled; the forms themselves are in `_area_exprs`
-(re-exported here: `attenfit.area` reads them from this module).
+"""What each area model's shader form costs compiled, and the form with a light's radius baked
+in: printed (`area_function_source`) or evaluated at a precision (`evaluate_area_form`).
 
 `area_compiled_cost(model)` compiles the GLSL function with the scalar parameters and radius at
 generic values (the count of the model's shader for any light, as `structural_cost` does for
@@ -9,32 +9,57 @@ traced-operation estimate of `_cost.SHADER_WEIGHTS` over the form.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from .._curves import AreaModel
-from ._area_exprs import AREA_FORM_INPUTS as AREA_FORM_INPUTS
-from ._area_exprs import area_export_form as area_export_form
-from ._area_exprs import area_function_source as area_function_source
-from ._area_exprs import area_shader_form as area_shader_form
-from ._area_exprs import baked_values
-from ._area_exprs import evaluate_area_form as evaluate_area_form
-from ._compilers import Compiled, cost_method, spirv_counts
+from .._curves import AREA_FORM_INPUTS, AreaModel
+from .._errors import BadValueError
+from .._ir import ShaderForm, evaluate_form
+from ._compilers import Compiled, cost_method, generic_model, spirv_counts
 from ._print import print_form
 
 __all__ = [
-    "AREA_FORM_INPUTS",
     "AreaCompiledCost",
     "area_compiled_cost",
-    "area_export_form",
     "area_function_source",
-    "area_shader_form",
+    "baked_values",
     "evaluate_area_form",
 ]
 
 
-# ----------------------------------------------------------------------------- cost
+def _form(model: AreaModel) -> ShaderForm:
+    form = model.shader_form()
+    if form is None:
+        raise BadValueError(f"area model {model.name!r} has no shader form")
+    return form
+
+
+def baked_values(model: AreaModel, r: float) -> dict[str, float]:
+    """The form's parameter values with the radius `r` baked in (scalar parameters only)."""
+    out = {k: float(np.asarray(v)) for k, v in model.params().items() if np.ndim(v) == 0}
+    out.setdefault("radius", float(r))
+    return out
+
+
+def area_function_source(model: AreaModel, lang: str, fname: str, r: float) -> str:
+    """The function `fname(d, cos_r, cos_e, cos_n, g)` of `model` in `lang`, `r` baked in."""
+    return print_form(_form(model), lang, fname, baked_values(model, r), uniforms=False, header=())
+
+
+def evaluate_area_form(
+    model: AreaModel,
+    inputs: Mapping[str, Any],
+    dtype: Any = np.float32,
+) -> np.ndarray:
+    """The form of `model` at `inputs` (a mapping with `AREA_FORM_INPUTS` and `r`), every
+    operation rounded to `dtype` (`_ir.evaluate_form`); `r` must be one value."""
+    r = float(np.asarray(inputs["r"]).reshape(-1)[0])
+    given = {k: inputs[k] for k in AREA_FORM_INPUTS}
+    return evaluate_form(_form(model), given, baked_values(model, r), dtype)
+
+
 class AreaCompiledCost:
     """What one area model's shader form costs compiled (`spirv`), or its estimate."""
 
@@ -63,8 +88,7 @@ class AreaCompiledCost:
         }
 
 
-#: Generic values (none a compiler folds away) for the parameters and the radius.
-_GENERIC = {"positive": 0.7313, "nonnegative": 0.5311, "unit": 0.3713, "real": 0.4217}
+#: A generic radius (no value a compiler folds away).
 _GENERIC_R = 0.6173
 
 
@@ -72,15 +96,10 @@ def area_compiled_cost(model: AreaModel) -> AreaCompiledCost:
     """The compiled cost of `model`'s shader form, its scalar parameters and `r` at generic
     values (the same count for every light); SPIR-V where glslangValidator and spirv-opt are
     installed, else the traced-operation estimate."""
-    from ._cost import SHADER_WEIGHTS
+    from ._cost import form_cost
 
-    generic = {
-        p: _GENERIC[model.constraint(p)] for p, v in model.params().items() if np.ndim(v) == 0
-    }
-    m = model.replace(**generic) if generic else model
-    form = area_shader_form(m)
-    if form is None:
-        raise ValueError(f"area model {model.name!r} has no shader form")
+    m = generic_model(model)
+    form = _form(m)
     fname = "attenfit_area"
     glsl = print_form(form, "glsl", fname, baked_values(m, _GENERIC_R), uniforms=False, header=())
     spirv = (
@@ -88,22 +107,5 @@ def area_compiled_cost(model: AreaModel) -> AreaCompiledCost:
         if cost_method() == "spirv"
         else None
     )
-    uniform = form.uniform_lets()
-    names = {"saturate": "clamp", "select": "select_n"}
-    total = 0.0
-
-    def walk(e: Any) -> None:
-        nonlocal total
-        from .._ir import Call, reads
-
-        if isinstance(e, Call):
-            if reads(e, {"d"}, uniform):
-                total += SHADER_WEIGHTS.get(names.get(e.op, e.op), 1)
-            for a in e.args:
-                walk(a)
-
-    for name, expr in form.lets:
-        if name not in uniform:
-            walk(expr)
-    walk(form.result)
-    return AreaCompiledCost(model.name, spirv, total, "spirv" if spirv is not None else "estimate")
+    method = "spirv" if spirv is not None else "estimate"
+    return AreaCompiledCost(model.name, spirv, form_cost(form), method)
