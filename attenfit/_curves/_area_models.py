@@ -39,6 +39,14 @@ def _sphere_frame(d, r):
     return q * q, inv * inv
 
 
+def _sphere_or_disk(let: Lets, x: dict[str, Ref], sin2: Ref, inv_area: Expr) -> Expr:
+    """Frostbite's shader: `g illuminanceSphereOrDisk(cosTheta, sinSigmaSqr) / (pi r^2)`,
+    cosTheta clamped to +-0.999 (Lagarde & de Rousiers 2014, section 4.7.2.4)."""
+    ct = let("cos_theta", fn("clamp", x["cos_r"], -0.999, 0.999))
+    inv = let("inv_pi_r2", inv_area)
+    return x["g"] * illuminance(let, ct, sin2, "") * inv
+
+
 # ----------------------------------------------------------------------------- exact sphere
 @register_area_model
 class SnyderSphere(AreaModel):
@@ -73,12 +81,9 @@ class SnyderSphere(AreaModel):
 
     def shader_form(self) -> ShaderForm:
         def build(let, x, p):
-            sin2 = let(
-                "sin_sigma_sqr", fn("min", p["radius"] * p["radius"] / (x["d"] * x["d"]), 0.9999)
-            )
-            ct = let("cos_theta", fn("clamp", x["cos_r"], -0.999, 0.999))
-            inv_area = let("inv_pi_r2", 1.0 / (math.pi * p["radius"] * p["radius"]))
-            return x["g"] * illuminance(let, ct, sin2, "") * inv_area
+            r = p["radius"]
+            sin2 = let("sin_sigma_sqr", fn("min", r * r / (x["d"] * x["d"]), 0.9999))
+            return _sphere_or_disk(let, x, sin2, 1.0 / (math.pi * r * r))
 
         return area_form(
             self,
@@ -120,9 +125,7 @@ class FrostbiteDisk(AreaModel):
         def build(let, x, p):
             r2 = let("r2", p["radius"] * p["radius"])
             sin2 = let("sin_sigma_sqr", r2 / (r2 + fn("max", r2, x["d"] * x["d"])))
-            ct = let("cos_theta", fn("clamp", x["cos_r"], -0.999, 0.999))
-            inv_area = let("inv_pi_r2", 1.0 / (math.pi * r2))
-            return x["g"] * illuminance(let, ct, sin2, "") * inv_area
+            return _sphere_or_disk(let, x, sin2, 1.0 / (math.pi * r2))
 
         return area_form(
             self,
