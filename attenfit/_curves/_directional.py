@@ -21,10 +21,10 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadValueError
-from .._ir import Lets, Ref, ShaderForm, fn
+from .._ir import Lets, Ref, fn
 from . import _parts as parts
 from ._family import Family
-from ._forms import distance_form
+from ._forms import shader
 
 #: The floor on cos(theta_p) - cos(theta_u) used by Frostbite's `getAngleAtt` CPU side
 #: (`1/max(0.001, cosInner - cosOuter)`), the glTF KHR_lights_punctual reference code and
@@ -160,20 +160,16 @@ class SpotFrostbite(SpotFalloff):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         return spot_frostbite(d, self.umbra, self.penumbra)
 
-    def shader_form(self) -> ShaderForm:
-        def build(let, d, umbra, penumbra):
-            cos_outer, scale = _spot_scale(let, umbra, penumbra)
-            offset = let("offset", -cos_outer * scale)
-            t = let("t", fn("saturate", d * scale + offset))
-            return t * t
-
-        return distance_form(
-            self,
-            build,
-            "Filament shaders/src/light_punctual.fs::getAngleAttenuation (scale and offset as "
-            "LightManager.cpp::setSpotLightCone, floor 0.001 as Frostbite's getAngleAtt)",
-            engine=True,
-        )
+    @shader(
+        "Filament shaders/src/light_punctual.fs::getAngleAttenuation (scale and offset as "
+        "LightManager.cpp::setSpotLightCone, floor 0.001 as Frostbite's getAngleAtt)",
+        engine=True,
+    )
+    def shader_form(self, let, d, umbra, penumbra):
+        cos_outer, scale = _spot_scale(let, umbra, penumbra)
+        offset = let("offset", -cos_outer * scale)
+        t = let("t", fn("saturate", d * scale + offset))
+        return t * t
 
 
 class SpotThreeJS(SpotFalloff):
@@ -191,18 +187,14 @@ class SpotThreeJS(SpotFalloff):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         return spot_threejs(d, self.umbra, self.penumbra)
 
-    def shader_form(self) -> ShaderForm:
-        def build(let, d, umbra, penumbra):
-            cos_outer, scale = _spot_scale(let, umbra, penumbra)
-            t = let("t", fn("saturate", (d - cos_outer) * scale))
-            return t * t * (3.0 - 2.0 * t)
-
-        return distance_form(
-            self,
-            build,
-            "three.js getSpotAttenuation: smoothstep(coneCos, penumbraCos, angleCos), written out",
-            engine=True,
-        )
+    @shader(
+        "three.js getSpotAttenuation: smoothstep(coneCos, penumbraCos, angleCos), written out",
+        engine=True,
+    )
+    def shader_form(self, let, d, umbra, penumbra):
+        cos_outer, scale = _spot_scale(let, umbra, penumbra)
+        t = let("t", fn("saturate", (d - cos_outer) * scale))
+        return t * t * (3.0 - 2.0 * t)
 
 
 SPOT_FALLOFFS: dict[str, type[SpotFalloff]] = {"frostbite": SpotFrostbite, "threejs": SpotThreeJS}

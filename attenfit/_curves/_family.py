@@ -279,9 +279,6 @@ def jit_call(call):
     return wrapper
 
 
-Out = Float[Array, "*shape"]
-
-
 def float32_family(family: Family) -> Family:
     """`family` with every floating parameter leaf as a float32 array."""
 

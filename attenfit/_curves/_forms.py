@@ -2,9 +2,10 @@
 in the expression language of `attenfit._ir`, which `attenfit._shaders` prints, evaluates in
 float16/32/64, compiles and exports.
 
-Each model writes its own form beside its JAX code (`Model.shader_form`), with
-`distance_form` (a family: the input `d`) or `area_form` (an area model: the inputs
-`AREA_FORM_INPUTS` and the light's radius as the parameter `radius`). Unlike the JAX forms
+Each model writes its own form beside its JAX code (`Model.shader_form`), a method decorated
+`@shader(source, engine=..., note=...)` (a family: the input `d`, `distance_form`) or
+`@area_shader(...)` (an area model: the inputs `AREA_FORM_INPUTS` and the light's radius as
+the parameter `radius`, `area_form`), whose body builds the expression. Unlike the JAX forms
 (what fitting and the truth comparisons use), the shader forms have no guards: no NaN
 pass-through, no negative-d branch, no overflow-free hypot; each `note` says where a form
 parts from its model. Parameters the engines precompute on the CPU (1/r^2, 1/range) are
@@ -13,13 +14,22 @@ named temporaries that read parameters only: a compiler folds them when they are
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from typing import Any
 
 from .._ir import Expr, Lets, Ref, ShaderForm, fn
 
-__all__ = ["AREA_FORM_INPUTS", "OVERFLOW", "area_form", "distance_form", "illuminance"]
+__all__ = [
+    "AREA_FORM_INPUTS",
+    "OVERFLOW",
+    "area_form",
+    "area_shader",
+    "distance_form",
+    "illuminance",
+    "shader",
+]
 
 #: The per-receiver inputs of an area model's form, in argument order (the light's radius is
 #: the parameter `radius`: `attenfit._shaders` makes it an input where it exports the form).
@@ -57,6 +67,29 @@ def area_form(
     return ShaderForm(
         model.name, params, tuple(let.items), result, source, engine, note, AREA_FORM_INPUTS
     )
+
+
+def shader(source: str, *, engine: bool, note: str = ""):
+    """Make `build(self, let, d, *params) -> result` a family's `shader_form(self)`
+    (`distance_form`; `self` for its static options)."""
+    return _method(distance_form, source, engine, note)
+
+
+def area_shader(source: str, *, engine: bool, note: str = ""):
+    """Make `build(self, let, x, p) -> result` an area model's `shader_form(self)`
+    (`area_form`)."""
+    return _method(area_form, source, engine, note)
+
+
+def _method(make: Callable[..., ShaderForm], source: str, engine: bool, note: str):
+    def deco(build: Callable[..., Expr]) -> Callable[[Any], ShaderForm]:
+        @functools.wraps(build)
+        def shader_form(self: Any) -> ShaderForm:
+            return make(self, functools.partial(build, self), source, engine=engine, note=note)
+
+        return shader_form
+
+    return deco
 
 
 def illuminance(let: Lets, cos_theta: Expr, sin2: Expr, tag: str) -> Ref:

@@ -9,10 +9,10 @@ from typing import ClassVar
 import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
-from .._ir import Expr, Ref, ShaderForm, fn
+from .._ir import Expr, Ref, fn
 from . import _parts as parts
 from ._family import Family, Out, Param, jit_call, register_family
-from ._forms import distance_form
+from ._forms import shader
 
 __all__ = ["MadamsCutoff", "MadamsRational", "MadamsSphere", "MadamsTan"]
 
@@ -66,18 +66,14 @@ class MadamsSphere(Family):
             d, parts.surface_sphere(parts.surface_distance(parts.distance(d), r), r)
         )
 
-    def shader_form(self) -> ShaderForm:
-        def build(let, d, r):
-            m = let("m", fn("max", d, r))
-            return 1.0 / (m * m)
-
-        return distance_form(
-            self,
-            build,
-            "Madams 2011 and its comments: r^2/D^2 clamped at the surface, over r^2",
-            engine=False,
-            note="1/max(d, r)^2 (the reference adds r back to max(d - r, 0))",
-        )
+    @shader(
+        "Madams 2011 and its comments: r^2/D^2 clamped at the surface, over r^2",
+        engine=False,
+        note="1/max(d, r)^2 (the reference adds r back to max(d - r, 0))",
+    )
+    def shader_form(self, let, d, r):
+        m = let("m", fn("max", d, r))
+        return 1.0 / (m * m)
 
 
 @register_family
@@ -110,21 +106,16 @@ class MadamsCutoff(Family):
         d, r, c = parts.promote(d, self.r, self.cutoff)
         return parts.keep_nan(d, parts.cutoff_bias(parts.distance(d), r, c) / (r * r))
 
-    def shader_form(self) -> ShaderForm:
-        def build(let, d, r, cutoff):
-            r_sqr = let("r_sqr", r * r)
-            scale = let("scale", 1.0 / ((1.0 - cutoff) * r_sqr))
-            m = let("m", fn("max", d, r))
-            return fn("max", r_sqr / (m * m) - cutoff, 0.0) * scale
-
-        return distance_form(
-            self,
-            build,
-            "Madams 2011, Light attenuation (GLSL DirectIllumination): scale and bias by the "
-            "cutoff",
-            engine=False,
-            note="a - cutoff cancels near the range r/sqrt(cutoff) (the reference factors it)",
-        )
+    @shader(
+        "Madams 2011, Light attenuation (GLSL DirectIllumination): scale and bias by the cutoff",
+        engine=False,
+        note="a - cutoff cancels near the range r/sqrt(cutoff) (the reference factors it)",
+    )
+    def shader_form(self, let, d, r, cutoff):
+        r_sqr = let("r_sqr", r * r)
+        scale = let("scale", 1.0 / ((1.0 - cutoff) * r_sqr))
+        m = let("m", fn("max", d, r))
+        return fn("max", r_sqr / (m * m) - cutoff, 0.0) * scale
 
 
 @register_family
@@ -157,20 +148,15 @@ class MadamsTan(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         return _warped_sphere(parts.tan_warp, d, self.r, self.d_max)
 
-    def shader_form(self) -> ShaderForm:
-        def build(let, d, r, d_max):
-            k = let("k", (2.0 / math.pi) * d_max)
-            ds = let("ds", fn("max", d - r, 0.0))
-            return _warped_form(let, r, d_max, k * fn("tan", ds / k), ds)
-
-        return distance_form(
-            self,
-            build,
-            "Madams 2011b, Improved light attenuation: the tan warp (2 d_max/pi for the post's "
-            "2.1)",
-            engine=False,
-            note="tan near its pole as written (the reference uses 1/tan of the complement there)",
-        )
+    @shader(
+        "Madams 2011b, Improved light attenuation: the tan warp (2 d_max/pi for the post's 2.1)",
+        engine=False,
+        note="tan near its pole as written (the reference uses 1/tan of the complement there)",
+    )
+    def shader_form(self, let, d, r, d_max):
+        k = let("k", (2.0 / math.pi) * d_max)
+        ds = let("ds", fn("max", d - r, 0.0))
+        return _warped_form(let, r, d_max, k * fn("tan", ds / k), ds)
 
 
 @register_family
@@ -201,17 +187,13 @@ class MadamsRational(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         return _warped_sphere(parts.rational_warp, d, self.r, self.d_max)
 
-    def shader_form(self) -> ShaderForm:
-        def build(let, d, r, d_max):
-            inv_d_max = let("inv_d_max", 1.0 / d_max)
-            ds = let("ds", fn("max", d - r, 0.0))
-            u = let("u", ds * inv_d_max)
-            return _warped_form(let, r, d_max, ds / (1.0 - u * u), ds)
-
-        return distance_form(
-            self,
-            build,
-            "Madams 2011b, Improved light attenuation: the rational warp d/(1 - (d/d_max)^2)",
-            engine=False,
-            note="1 - (d/d_max)^2 cancels near the range (the reference factors it)",
-        )
+    @shader(
+        "Madams 2011b, Improved light attenuation: the rational warp d/(1 - (d/d_max)^2)",
+        engine=False,
+        note="1 - (d/d_max)^2 cancels near the range (the reference factors it)",
+    )
+    def shader_form(self, let, d, r, d_max):
+        inv_d_max = let("inv_d_max", 1.0 / d_max)
+        ds = let("ds", fn("max", d - r, 0.0))
+        u = let("u", ds * inv_d_max)
+        return _warped_form(let, r, d_max, ds / (1.0 - u * u), ds)

@@ -17,11 +17,10 @@ import numpy as np
 from .._curves import AREA_FORM_INPUTS, AreaModel
 from .._errors import BadValueError
 from .._ir import ShaderForm, evaluate_form
-from ._compilers import Compiled, cost_method, generic_model, spirv_counts
+from ._compilers import CompiledCost, cost_method, generic_model, spirv_counts
 from ._print import print_form
 
 __all__ = [
-    "AreaCompiledCost",
     "area_compiled_cost",
     "area_function_source",
     "baked_values",
@@ -60,42 +59,14 @@ def evaluate_area_form(
     return evaluate_form(_form(model), given, baked_values(model, r), dtype)
 
 
-class AreaCompiledCost:
-    """What one area model's shader form costs compiled (`spirv`), or its estimate."""
-
-    def __init__(self, model: str, spirv: Compiled | None, estimate: float, method: str):
-        self.model, self.spirv, self.estimate, self.method = model, spirv, estimate, method
-
-    @property
-    def cost(self) -> float:
-        """SPIR-V instructions where compiled, else the estimate."""
-        return float(self.spirv.total) if self.spirv is not None else float(self.estimate)
-
-    def label(self) -> str:
-        """What `cost` counts, naming the compiler."""
-        if self.spirv is not None:
-            return f"SPIR-V instructions ({self.spirv.tool})"
-        return "estimate: weighted traced operations (no compiler installed)"
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-friendly dict."""
-        return {
-            "model": self.model,
-            "cost": self.cost,
-            "label": self.label(),
-            "spirv": None if self.spirv is None else self.spirv.to_dict(),
-            "estimate": self.estimate,
-        }
-
-
 #: A generic radius (no value a compiler folds away).
 _GENERIC_R = 0.6173
 
 
-def area_compiled_cost(model: AreaModel) -> AreaCompiledCost:
+def area_compiled_cost(model: AreaModel) -> CompiledCost:
     """The compiled cost of `model`'s shader form, its scalar parameters and `r` at generic
     values (the same count for every light); SPIR-V where glslangValidator and spirv-opt are
-    installed, else the traced-operation estimate."""
+    installed, else the traced-operation estimate (`CompiledCost`, with no SASS count)."""
     from ._cost import form_cost
 
     m = generic_model(model)
@@ -108,4 +79,4 @@ def area_compiled_cost(model: AreaModel) -> AreaCompiledCost:
         else None
     )
     method = "spirv" if spirv is not None else "estimate"
-    return AreaCompiledCost(model.name, spirv, form_cost(form), method)
+    return CompiledCost(model.name, "shader", spirv, None, form_cost(form), method)

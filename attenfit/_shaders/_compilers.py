@@ -362,7 +362,8 @@ def cost_method() -> str:
 
 @dataclasses.dataclass(frozen=True)
 class CompiledCost:
-    """What one family costs as compiled, in the form that would ship (`form`).
+    """What one model costs as compiled, in the form that would ship (`form`; an area
+    model's `area_compiled_cost`: its shader form, SPIR-V only).
 
     `spirv` and `sass` are the compilers' counts (None where that compiler is not
     installed); `estimate` is the traced-operation model's weighted count of the same form;

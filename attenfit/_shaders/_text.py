@@ -25,6 +25,7 @@ __all__ = [
     "LANGUAGES",
     "comment_lines",
     "comment_safe",
+    "finish_header",
     "fit_summary",
     "float32_literal",
     "float32_param",
@@ -145,6 +146,27 @@ def fit_summary(info: Mapping[str, Any]) -> list[str]:
     if "note" in info:
         lines.append(info["note"])
     return lines
+
+
+def finish_header(
+    lines: Sequence[str],
+    info: Mapping[str, Any],
+    notes: Sequence[str],
+    generated: Sequence[str],
+    lang: str,
+) -> list[str]:
+    """A function's header comment: `lines`, a fit's error (`info`), `notes`, how it was
+    `generated`, and what `lang` needs, each line through `comment_lines`."""
+    out = list(lines)
+    if info:
+        fit = fit_summary(dict(info))
+        out += [f"fit     : {fit[0]}", *(f"          {line}" for line in fit[1:])]
+    out += [*notes, *generated]
+    if lang == "c":
+        out.append("Needs <math.h> (link -lm); compile without -ffast-math.")
+    if lang == "cuda":
+        out.append("A CUDA __device__ function (nvcc or NVRTC).")
+    return comment_lines(out)
 
 
 # ----------------------------------------------------------------------------- identifiers
