@@ -27,6 +27,16 @@ class _Findings:
                 return r
         return None
 
+    def published(self, fam, cfg, path, key, quantity, expected=None):
+        """Add the value at `path` of family `fam`'s published result on `cfg`, where the
+        family is compared and its result has that part."""
+        r = self.row(fam, cfg, "published") if fam in self.by_name else None
+        if r and r[path[0]]:
+            value = r
+            for k in path:
+                value = value[k]
+            self.add(key, quantity, value, cfg, expected)
+
     def add(self, key, quantity, value, config="", expected=None):
         self.out.append(
             {"key": key, "quantity": quantity, "value": value, "config": config,
@@ -62,57 +72,33 @@ def _swept(configs, kind):
 
 def _sphere_findings(found: _Findings, sphere) -> None:
     """Inverse square against the sphere: exact facing it and on a plane it touches."""
-    if "inverse_square" not in found.by_name:
-        return
-    r = found.row("inverse_square", sphere.name, "published")
-    if r and r["sweep"]:
-        found.add(
-            "sphere_inverse_square_max_error",
-            "inverse-square vs the sphere, receivers facing it from contact to 1000 r: max |rel. error|",
-            r["sweep"]["overall"]["max_abs"],
-            sphere.name,
-            0.0,
-        )
-    if r and r["plane"]:
-        found.add(
-            "sphere_plane_inverse_square_max_error",
-            "inverse-square vs the sphere touching a plane (every receiver unclipped): image max |rel. error|",
-            r["plane"]["image"]["max_abs"],
-            sphere.name,
-            0.0,
-        )
+    for part, key, what in (
+        ("sweep", "sphere_inverse_square_max_error", "inverse-square vs the sphere, receivers facing it from contact to 1000 r: max |rel. error|"),
+        ("plane", "sphere_plane_inverse_square_max_error", "inverse-square vs the sphere touching a plane (every receiver unclipped): image max |rel. error|"),
+    ):  # fmt: skip
+        path = (part, "overall" if part == "sweep" else "image", "max_abs")
+        found.published("inverse_square", sphere.name, path, key, what, 0.0)
 
 
 def _disk_findings(found: _Findings, disk) -> None:
     """Inverse square near the facing disk; Yuksel's curves and the facing disk at d = 0 (and
     eq. 8 against the disk, `_eq8_findings`); the facing disk's own error."""
-    published = {n: found.row(n, disk.name, "published") for n in found.by_name}
-    rr = published.get("inverse_square")
-    if rr and rr["sweep"]:
-        found.add(
-            "disk_inverse_square_near_max_error",
-            "inverse-square vs the facing disk, near band d < r: max |rel. error|",
-            rr["sweep"]["bands"]["near"]["max_abs"],
-            disk.name,
-        )
+    found.published(
+        "inverse_square", disk.name, ("sweep", "bands", "near", "max_abs"),
+        "disk_inverse_square_near_max_error",
+        "inverse-square vs the facing disk, near band d < r: max |rel. error|",
+    )  # fmt: skip
     for fam, key, what, expected in (
         ("yuksel_adhoc", "disk_eq8_at_zero_ratio", "eq. 8 (yuksel_adhoc, r) / facing disk at d = 0", 2.0),
         ("yuksel", "disk_eq7_at_zero_ratio", "eq. 7 (yuksel, r) / facing disk at d = 0", 2.0),
         ("disk_facing", "disk_facing_at_zero_ratio", "disk_facing (r) / facing disk at d = 0", 1.0),
     ):  # fmt: skip
-        rr = published.get(fam)
-        if rr and rr["sweep"]:
-            found.add(key, what, rr["sweep"]["at_zero"]["ratio"], disk.name, expected)
+        found.published(fam, disk.name, ("sweep", "at_zero", "ratio"), key, what, expected)
     _eq8_findings(found, disk)
-    rr = published.get("disk_facing")
-    if rr and rr["sweep"]:
-        found.add(
-            "disk_facing_max_error",
-            "disk_facing (r) vs the facing disk: max |rel. error|",
-            rr["sweep"]["overall"]["max_abs"],
-            disk.name,
-            0.0,
-        )
+    found.published(
+        "disk_facing", disk.name, ("sweep", "overall", "max_abs"), "disk_facing_max_error",
+        "disk_facing (r) vs the facing disk: max |rel. error|", 0.0,
+    )  # fmt: skip
 
 
 def _eq8_findings(found: _Findings, disk) -> None:
