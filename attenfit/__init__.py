@@ -40,6 +40,7 @@ if TYPE_CHECKING:  # the public API, imported on first use (`__getattr__` reads 
     from . import families as families
     from . import parts as parts
     from ._curves import family_from_function as family_from_function
+    from ._curves import no_shader_form as no_shader_form
     from ._curves import lambert_disk as lambert_disk
     from ._curves import spot_frostbite as spot_frostbite
     from ._curves import spot_t as spot_t

@@ -5,10 +5,11 @@ exact disk above the horizon with a sphere cap below it, Unreal's and Godot's ho
 Unity HDRP's fitted sphere irradiance and the most representative point; `PointLight(family)`
 is the point-light model of every distance family in the same terms. `area_inputs` reads
 the geometry from an emitter and its receivers. Implemented in `attenfit._curves._area`,
-`_area_models`, `attenfit._truth._geometry` and `attenfit._shaders._area_forms` (shader
-forms and compiled costs); docs/area.md.
+`_area_models` (each model with its shader form), `attenfit._truth._geometry` and
+`attenfit._shaders._area_cost` (compiled costs); docs/area.md.
 """
 
+from ._curves import AREA_FORM_INPUTS as AREA_FORM_INPUTS
 from ._curves import AREA_INPUTS as AREA_INPUTS
 from ._curves import AreaInputs as AreaInputs
 from ._curves import AreaModel as AreaModel
@@ -24,10 +25,8 @@ from ._curves import cone_cosine as cone_cosine
 from ._curves import get_area_model as get_area_model
 from ._curves import list_area_models as list_area_models
 from ._curves import register_area_model as register_area_model
-from ._shaders._area_forms import AREA_FORM_INPUTS as AREA_FORM_INPUTS
-from ._shaders._area_forms import area_compiled_cost as area_compiled_cost
-from ._shaders._area_forms import area_function_source as area_function_source
-from ._shaders._area_forms import area_shader_form as area_shader_form
+from ._shaders import area_compiled_cost as area_compiled_cost
+from ._shaders import area_function_source as area_function_source
 from ._truth import area_inputs as area_inputs
 from ._truth import area_irradiance as area_irradiance
 
@@ -48,7 +47,6 @@ __all__ = [
     "area_function_source",
     "area_inputs",
     "area_irradiance",
-    "area_shader_form",
     "cone_cosine",
     "get_area_model",
     "list_area_models",

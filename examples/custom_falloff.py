@@ -70,6 +70,7 @@ def _register():
         formula: ClassVar[str] = "(1 - exp(-d^2/r^2))/d^2  [= -expm1(-x)/(x r^2), x = d^2/r^2]"
         source: ClassVar[str] = "attenfit examples/custom_falloff.py (a user's own curve)"
         default_free: ClassVar[tuple[str, ...]] = ("r",)
+        shader_form = attenfit.no_shader_form
         length_params: ClassVar[tuple[str, ...]] = ("r",)
         tends_to_inverse_square: ClassVar[bool] = True
         scale_covariant: ClassVar[bool] = True

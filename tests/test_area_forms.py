@@ -9,13 +9,7 @@ import pytest
 
 import attenfit as af
 from attenfit import area
-from attenfit._shaders._area_forms import (
-    AREA_FORM_INPUTS,
-    area_compiled_cost,
-    area_function_source,
-    area_shader_form,
-    evaluate_area_form,
-)
+from attenfit._shaders import area_compiled_cost, area_function_source, evaluate_area_form
 from attenfit._shaders._compilers import missing
 
 R = 0.3
@@ -28,7 +22,7 @@ TOL = {"snyder_sphere": 1e-3, "frostbite_disk": 1e-3, "vector_disk": 1e-2}
 def _inputs(emitter, seed, d_min):
     ds = af.random_receivers(emitter, 3000, d_min, 30 * R, seed=seed)
     x = area.area_inputs(emitter, ds.points, ds.normals)
-    given = {k: np.asarray(getattr(x, k)) for k in AREA_FORM_INPUTS}
+    given = {k: np.asarray(getattr(x, k)) for k in area.AREA_FORM_INPUTS}
     return x, {**given, "r": R}
 
 
@@ -74,17 +68,17 @@ def test_the_clamped_vector_disk_has_its_own_form(disk_inputs):
     x, given = disk_inputs
     err = _check(model, x, given)
     assert err.max() < 1e-6
-    names = [n for n, _ in area_shader_form(model).lets]
+    names = [n for n, _ in model.shader_form().lets]
     assert "e_vec" in names and not any(n.startswith("cap_") for n in names)
-    assert any(n.startswith("cap_") for n, _ in area_shader_form(area.VectorDisk()).lets)
+    assert any(n.startswith("cap_") for n, _ in area.VectorDisk().shader_form().lets)
 
 
 def test_point_light_form_is_the_family_form_times_the_clamped_cosine(sphere_inputs):
     x, given = sphere_inputs
     fam = af.Yuksel(r=0.4)
     _check(area.PointLight(fam), x, given)
-    form = area_shader_form(area.PointLight(fam))
-    assert form.params == ("r",) and form.inputs == AREA_FORM_INPUTS
+    form = area.PointLight(fam).shader_form()
+    assert form.params == ("r",) and form.inputs == area.AREA_FORM_INPUTS
 
 
 def test_every_registered_model_has_a_form_in_every_language():

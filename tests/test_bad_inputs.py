@@ -226,6 +226,7 @@ class _Dup(af.Family):
     formula = "1/d^2"
     source = "test"
     default_free = ()
+    shader_form = af.no_shader_form
 
     def __call__(self, d):
         return 1 / d**2
@@ -236,6 +237,7 @@ class _BadName(af.Family):
     formula = "1/d^2"
     source = "test"
     default_free = ()
+    shader_form = af.no_shader_form
 
     def __call__(self, d):
         return 1 / d**2

@@ -25,6 +25,7 @@ class _InvSq(attenfit.Family):
     formula = "1/d^2"
     source = "test"
     default_free = ()
+    shader_form = attenfit.no_shader_form
 
     def __call__(self, d):
         d = jnp.asarray(d)
@@ -37,6 +38,7 @@ class _Yuksel(attenfit.Family):
     formula = "2/(s(s+d)), s = sqrt(d^2+r^2)"
     source = "test"
     default_free = ("r",)
+    shader_form = attenfit.no_shader_form
 
     def __call__(self, d):
         d = jnp.asarray(d)
@@ -51,6 +53,7 @@ class _Window(attenfit.Family):
     formula = "(1 - (d/r_max)^4)+^2 / d^2, clipped"
     source = "test"
     default_free = ("r_max",)
+    shader_form = attenfit.no_shader_form
 
     def __call__(self, d):
         d = jnp.asarray(d)
@@ -65,6 +68,7 @@ class _Tan(attenfit.Family):
     formula = "1/(1 + tan(d/d_max))^2"
     source = "test"
     default_free = ("d_max",)
+    shader_form = attenfit.no_shader_form
 
     def __call__(self, d):
         d = jnp.asarray(d)

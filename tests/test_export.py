@@ -306,6 +306,7 @@ def test_unsupported_primitive_is_named():
         formula = "erf(d)"
         source = "test"
         default_free = ()
+        shader_form = attenfit.no_shader_form
 
         def __call__(self, d):
             return jax.scipy.special.erf(jnp.asarray(d))

@@ -506,6 +506,7 @@ def test_registry_errors_and_a_custom_family():
         formula = "yuksel(d, r) * (1 - (d/r_max)^4)+^2"
         source = "this test"
         default_free = ("r",)
+        shader_form = attenfit.no_shader_form
 
         def __call__(self, d):
             d, r, r_max = parts.promote(d, self.r, self.r_max)

@@ -55,6 +55,7 @@ def test_the_override_check_catches_an_override():
         formula = "1"
         source = "nowhere"
         default_free = ()
+        shader_form = af.no_shader_form
 
         def __call__(self, d):
             return d
@@ -159,3 +160,26 @@ def test_a_light_range_sets_the_family_range(cls):
     beyond = np.asarray(fam(np.array([R * (1 + 1e-9), 2 * R])))
     assert np.all(beyond == 0)
     assert float(np.asarray(fam(np.float64(0.5 * R)))) > 0
+
+
+def test_the_shader_form_is_abstract_on_the_base():
+    assert "shader_form" in Model.__abstractmethods__
+    assert "shader_form" not in _concrete_methods(af.Family)
+
+
+@pytest.mark.parametrize("cls", MODELS, ids=lambda c: c.__name__)
+def test_each_model_writes_its_own_shader_form(cls):
+    """Every model's class gives its form (a model without one says so: `no_shader_form`),
+    named after the model, reading its inputs and parameters (an area model's also the
+    light's `radius`), citing where it comes from."""
+    form = cls().shader_form()
+    assert (form is not None) == cls.has_shader_form()
+    if form is None:
+        assert cls._params_home().shader_form is af.no_shader_form
+        return
+    assert form.family == cls.name and form.source and isinstance(form.engine, bool)
+    if cls.inputs == 0:
+        assert form.inputs == ("d",) and form.params == cls.param_names()
+    else:
+        assert form.inputs == area.AREA_FORM_INPUTS
+        assert set(form.params) - {"radius"} == set(cls.param_names())

@@ -441,9 +441,11 @@ def test_engine_properties_in_the_engines_units():
 
     spot = SceneLight(kind="spot", radius=0.05, position=(0.0, 0.0, 3.0), umbra=30.0, penumbra=20.0)
     angles = {"umbra": 30.0, "penumbra": 20.0}
-    # Unreal lengths are centimetres (UPointLightComponent AttenuationRadius, SourceRadius)
+    # Unreal lengths are centimetres (UPointLightComponent AttenuationRadius); SourceRadius
+    # starts at 0 (it wraps the diffuse term: the engine fit tries 0 and 100 x the radius)
     u = ENGINES["unreal"].properties("unreal_window", {"eps": 1e-4, "r_max": 7.5}, spot, angles)
-    assert (u["AttenuationRadius"], u["SourceRadius"]) == (750.0, 5.0)
+    assert (u["AttenuationRadius"], u["SourceRadius"]) == (750.0, 0.0)
+    assert ENGINES["unreal"].size_unit * spot.radius == 5.0
     assert u["bUseInverseSquaredFalloff"] is True
     # Unity Light.spotAngle / innerSpotAngle are full cone angles in degrees
     un = ENGINES["unity"].properties(

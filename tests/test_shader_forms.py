@@ -2,7 +2,7 @@
 meant to hold, that each engine form is the engine's code, and how precise it is in float16.
 
 The engine transcriptions here are written from the engines' own code (file and function
-named on each), independently of `attenfit._shaders._forms`.
+named on each), independently of the forms written on the model classes (`shader_form`).
 """
 
 from __future__ import annotations
@@ -19,12 +19,12 @@ import pytest
 
 import attenfit
 from attenfit import export as ex
-from attenfit._shaders import evaluate_form, scalar_params, shader_form
+from attenfit._shaders import evaluate_form, scalar_params
 from attenfit._shaders._precision import precision
 
 BUILTIN = {getattr(attenfit.families, c).name for c in attenfit.families.__all__}
 FAMILIES = [n for n in attenfit.list_families() if n in BUILTIN]
-WITH_FORM = [n for n in FAMILIES if n in ex.SHADER_FORMS]
+WITH_FORM = [n for n in FAMILIES if attenfit.get_family(n).has_shader_form()]
 
 
 def test_every_builtin_family_but_the_spline_has_a_shader_form():
@@ -48,7 +48,7 @@ def test_shader_form_agrees_with_the_reference_in_float32(name):
     """To float32 rounding over the normal domain; they part ways at the extremes (below)."""
     fam = attenfit.get_family(name)()
     d = _domain(fam)
-    got = evaluate_form(shader_form(fam), d, scalar_params(fam), np.float32).astype(np.float64)
+    got = evaluate_form(fam.shader_form(), d, scalar_params(fam), np.float32).astype(np.float64)
     with jax.enable_x64(True):
         want = np.asarray(fam(jnp.asarray(d, jnp.float64)))
     rel = np.abs(got - want) / want
@@ -57,12 +57,12 @@ def test_shader_form_agrees_with_the_reference_in_float32(name):
 
 def test_where_the_forms_part_ways():
     """The shader forms have no guards: what the stable form keeps, they do not."""
-    inv = shader_form(attenfit.get_family("inverse_square")())
+    inv = attenfit.get_family("inverse_square")().shader_form()
     big = np.float32(1e20)  # d*d overflows float32: 1/inf = 0, the reference gives 1e-40
     assert evaluate_form(inv, np.array([big]), {}, np.float32)[0] == 0
     win = attenfit.get_family("frostbite_window")()
     near = (10.0 * (1 - np.geomspace(1e-7, 1e-5, 50))).astype(np.float32)  # 1 - x^4 cancels
-    got = evaluate_form(shader_form(win), near, scalar_params(win), np.float32)
+    got = evaluate_form(win.shader_form(), near, scalar_params(win), np.float32)
     with jax.enable_x64(True):
         want = np.asarray(win(jnp.asarray(near, jnp.float64)))
     assert np.max(np.abs(got / want - 1)) > 0.05
@@ -136,7 +136,7 @@ def test_engine_form_is_the_engines_code(name):
     fam = (
         attenfit.directional.SpotFrostbite() if name == "spot_frostbite" else attenfit.directional.SpotThreeJS()
     ) if spot else attenfit.get_family(name)()  # fmt: skip
-    sf = shader_form(fam)
+    sf = fam.shader_form()
     assert sf.engine, name
     d = np.linspace(-1, 1, 801) if spot else np.geomspace(1e-3, 11.0, 801)
     p = scalar_params(fam)
@@ -148,7 +148,7 @@ def test_engine_form_is_the_engines_code(name):
 
 def test_engine_forms_cite_file_and_function():
     for name in ENGINES:
-        sf = shader_form(attenfit.get_family(name)())
+        sf = attenfit.get_family(name)().shader_form()
         assert "::" in sf.source or ".fs" in sf.source, (name, sf.source)
 
 

@@ -14,7 +14,7 @@ from ._common import EXIT_OK, OWN_MARKS, check_output
 #: `--help` does not import the scene stage (JAX); tests/test_architecture.py checks them.
 ENGINE_NAMES = ("godot", "threejs", "unreal", "filament", "bevy", "unity", "gltf")
 
-_FILE_ONLY = ("side", "tolerance", "precision", "threshold", "samples", "radius", "write_back")
+_FILE_ONLY = ("side", "tolerance", "precision", "threshold", "samples", "radius", "time", "write_back")  # fmt: skip
 
 
 def add_parser(sub, parents: list) -> None:
@@ -67,6 +67,13 @@ def add_parser(sub, parents: list) -> None:
     g.add_argument("--samples", type=int, help="receivers per light (default 4096)")
     g.add_argument("--radius", type=float, help="radius (m) of every light the file gives none")
     g.add_argument("--strict", action="store_true", help="refuse rect, dome, cylinder lights")
+    g.add_argument(
+        "--time",
+        type=float,
+        metavar="T",
+        help="USD time code to read every value at (default: each value's default, or the "
+        "stage's start time code for a value authored only as time samples)",
+    )
     g.add_argument(
         "--write-back",
         metavar="OUT",
@@ -142,6 +149,7 @@ def _run_file(args: argparse.Namespace) -> int:
         radius=args.radius,
         engine=args.engine,
         strict=True if args.strict else None,
+        time=args.time,
     )
     if args.json:
         print(json.dumps(ans.to_dict(), indent=2))

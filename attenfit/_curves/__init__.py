@@ -9,6 +9,8 @@ in the order `list_families()` reports them.
 # `list_families()`, of reports and tables): keep the imports unsorted.
 from ._model_base import CONSTRAINTS as CONSTRAINTS
 from ._model_base import Model as Model
+from ._model_base import no_shader_form as no_shader_form
+from ._forms import AREA_FORM_INPUTS as AREA_FORM_INPUTS
 from ._family import Family as Family
 from ._family import family_from_function as family_from_function
 from ._family import float32_family as float32_family

@@ -18,6 +18,8 @@ An area model predicts `E / I` from the geometry the engines' area-light code re
   so that a capsule is shaded as the sphere at its closest point, as the point light is.
 
 The distance families are the special case `PointLight(family)`: `g f(d) max(0, cos_r)`.
+Each model's `shader_form` is its expression in a shader, of `_forms.AREA_FORM_INPUTS` and
+the light's radius (the parameter `radius`).
 Every model is a final `eqx.Module` (a `Model`, `_model_base`) whose fields are its
 parameters, registered by name, `jit`-, `vmap`- and `grad`-able, in the dtype of `d`.
 """
@@ -33,8 +35,10 @@ import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
+from .._ir import Ref, ShaderForm, fn
 from . import _parts as parts
 from ._family import Family
+from ._forms import AREA_FORM_INPUTS
 from ._model_base import Model
 from ._softened import InverseSquare
 
@@ -314,6 +318,24 @@ class PointLight(AreaModel, metaclass=_PointLightMeta):
 
     def irradiance(self, d, cos_r, cos_e, r, cos_n, g):
         return g * self.family(d).astype(d.dtype) * jnp.maximum(cos_r, 0)
+
+    def shader_form(self) -> ShaderForm | None:
+        """The family's form times `g max(cos_r, 0)` (None where the family has none); it
+        reads no radius."""
+        inner = self.family.shader_form()
+        if inner is None:
+            return None
+        result = Ref("g", "d") * inner.result * fn("max", Ref("cos_r", "d"), 0.0)
+        return ShaderForm(
+            "point_light",
+            inner.params,
+            inner.lets,
+            result,
+            f"the point-light model g f(d) max(0, n.l), f: {inner.source}",
+            inner.engine,
+            inner.note,
+            AREA_FORM_INPUTS,
+        )
 
 
 @functools.cache

@@ -1,21 +1,24 @@
 """The named area-light models: the exact sphere, the disks, and the engines' horizon terms.
 
 Each is a final `AreaModel` (`_area`), registered by name, citing the engine file and
-function it transcribes; the engines' own expressions are in `attenfit._shaders._area_forms`
-and the tests check each model against a transcription of that code. Sphere-shaped models
-return `g * w(cos_r, r/d) / max(d, r)^2`, `w` their horizon-aware cosine (`cos_r` itself
+function it transcribes, with its shader form (`shader_form`: the engine's expression, with
+the engine's clamps); the tests check each model against a transcription of that code.
+Sphere-shaped models return `g * w(cos_r, r/d) / max(d, r)^2`, `w` their horizon-aware cosine (`cos_r` itself
 while the sphere is wholly above the horizon for the exact one).
 """
 
+import math
 from typing import ClassVar
 
 import equinox as eqx
 import jax.numpy as jnp
 
 from .._errors import BadValueError
+from .._ir import Expr, Lets, Ref, fn
 from . import _parts as parts
 from ._area import AreaModel, cone_cosine, contact_distance, register_area_model, safe_sqrt
 from ._family import Param
+from ._forms import area_shader, illuminance
 
 __all__ = [
     "FrostbiteDisk",
@@ -34,6 +37,14 @@ def _sphere_frame(d, r):
     q = r / m
     inv = 1 / m
     return q * q, inv * inv
+
+
+def _sphere_or_disk(let: Lets, x: dict[str, Ref], sin2: Ref, inv_area: Expr) -> Expr:
+    """Frostbite's shader: `g illuminanceSphereOrDisk(cosTheta, sinSigmaSqr) / (pi r^2)`,
+    cosTheta clamped to +-0.999 (Lagarde & de Rousiers 2014, section 4.7.2.4)."""
+    ct = let("cos_theta", fn("clamp", x["cos_r"], -0.999, 0.999))
+    inv = let("inv_pi_r2", inv_area)
+    return x["g"] * illuminance(let, ct, sin2, "") * inv
 
 
 # ----------------------------------------------------------------------------- exact sphere
@@ -68,6 +79,16 @@ class SnyderSphere(AreaModel):
         s2, inv_d2 = _sphere_frame(d, r)
         return g * cone_cosine(cos_r, s2) * inv_d2
 
+    @area_shader(
+        "Frostbite 2014 section 4.7.2.4 (illuminanceSphereOrDisk, sphere evaluation)",
+        engine=True,
+        note="clamps cosTheta to +-0.999 and sin^2 to 0.9999 (the engine's); 1/(pi r^2) folded",
+    )
+    def shader_form(self, let, x, p):
+        r = p["radius"]
+        sin2 = let("sin_sigma_sqr", fn("min", r * r / (x["d"] * x["d"]), 0.9999))
+        return _sphere_or_disk(let, x, sin2, 1.0 / (math.pi * r * r))
+
 
 # ----------------------------------------------------------------------------- disks
 @register_area_model
@@ -95,6 +116,16 @@ class FrostbiteDisk(AreaModel):
         q = r / h
         inv = 1 / h
         return g * cone_cosine(cos_r, q * q) * (inv * inv)
+
+    @area_shader(
+        "Frostbite 2014 section 4.7.2.4 (illuminanceSphereOrDisk, disk evaluation)",
+        engine=True,
+        note="g stands for saturate(dot(planeNormal, -L)); cosTheta clamped to +-0.999",
+    )
+    def shader_form(self, let, x, p):
+        r2 = let("r2", p["radius"] * p["radius"])
+        sin2 = let("sin_sigma_sqr", r2 / (r2 + fn("max", r2, x["d"] * x["d"])))
+        return _sphere_or_disk(let, x, sin2, 1.0 / (math.pi * r2))
 
 
 #: Where 4 s^2 r^2 / (d^2 + r^2)^2 exceeds this, S is formed as a product (near the rim).
@@ -173,6 +204,37 @@ class VectorDisk(AreaModel):
         lit = (cos_e > 0) & ~below
         return jnp.where(lit, jnp.where(above, e_vec, e_clip), jnp.zeros_like(d))
 
+    @area_shader(
+        "Howell B-12/B-14 (the vector irradiance of a disk); the clipped case as Hill & "
+        "Heitz 2016 slide 102 and Unity HDRP AreaLighting.hlsl (a sphere cap of the same "
+        "form factor, evaluated by Frostbite's illuminanceSphereOrDisk)",
+        engine=False,
+        note="unguarded: no rescaling by sqrt(d^2 + r^2), no product form near the rim",
+    )
+    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
+        """`irradiance` without its guards."""
+        d, cr, ce, cn, radius = x["d"], x["cos_r"], x["cos_e"], x["cos_n"], p["radius"]
+        r2 = let("r2", radius * radius)
+        z = let("z", d * ce)
+        s2 = let("s2", d * d - z * z)
+        a = let("a", d * d + r2)
+        big_s = let("big_s", fn("sqrt", fn("max", a * a - 4.0 * s2 * r2, 0.0)))
+        q = let("q", big_s + z * z + r2 - s2)
+        num = let("num", q * cn + 2.0 * z * (d * cr - z * cn))
+        den = let("den", big_s * (big_s + a))
+        e_vec = let("e_vec", fn("max", num, 0.0) / den)
+        if self.clip == "clamp":  # max(0, n.F) where the horizon cuts it too
+            e_clip: Expr = e_vec
+        else:
+            f_len = let("f_len", fn("sqrt", q * q + 4.0 * z * z * s2))  # |F| den / r^2
+            sin2 = let("cap_sin2", fn("min", r2 * f_len / den, 0.9999))
+            cos_w = let("cap_cos", fn("clamp", num / f_len, -0.999, 0.999))
+            e_clip = illuminance(let, cos_w, sin2, "cap_") * (f_len / (math.pi * sin2 * den))
+        w = let("w", fn("sqrt", fn("max", 1.0 - cn * cn, 0.0)))
+        above = fn("ge", d * cr, radius * w)
+        lit = fn("select", ce > 0.0, fn("select", above, e_vec, e_clip), 0.0)
+        return fn("select", d * cr > -radius * w, lit, 0.0)
+
 
 # ----------------------------------------------------------------------------- horizon wraps
 @register_area_model
@@ -206,6 +268,19 @@ class UnrealWrap(AreaModel):
         w = jnp.where(cos_r >= s, cos_r, jnp.where(cos_r > -s, wrapped, jnp.zeros_like(cos_r)))
         return g * w * inv_d2
 
+    @area_shader(
+        "Unreal Engine CapsuleLight.ush::SphereHorizonCosWrap; described, not copied",
+        engine=True,
+        note="the sphere's 1/max(d, r)^2 for the engine's 1/(d^2 + 1 cm^2)",
+    )
+    def shader_form(self, let, x, p):
+        inv = let("inv_d", 1.0 / fn("max", x["d"], p["radius"]))
+        s2 = fn("saturate", p["radius"] * p["radius"] * inv * inv)
+        s = let("sin_a", p["k"] * fn("sqrt", s2))
+        c = let("nol", fn("max", x["cos_r"], -s))
+        w = fn("select", x["cos_r"] < s, (c + s) * (c + s) / (4.0 * s), x["cos_r"])
+        return x["g"] * w * inv * inv
+
 
 @register_area_model
 class GodotWrap(AreaModel):
@@ -235,6 +310,19 @@ class GodotWrap(AreaModel):
         root = jnp.sqrt(1 + t2)
         size_a = t2 / (root * (1 + root))  # 1 - 1/sqrt(1 + t^2), without the cancellation
         return g * jnp.clip(size_a + cos_r, 0, 1) * inv_d2
+
+    @area_shader(
+        "Godot 4 scene_forward_lights_inc.glsl::light_process_omni (size_A) and light_compute",
+        engine=True,
+        note="t = k r / max(d, r) for size / max(0.001, light_length); 1/max(d, r)^2 for "
+        "the engine's windowed falloff",
+    )
+    def shader_form(self, let, x, p):
+        inv = let("inv_d", 1.0 / fn("max", x["d"], p["radius"]))
+        t = let("t", p["k"] * p["radius"] * inv)
+        size_a = let("size_a", fn("max", 1.0 - 1.0 / fn("sqrt", 1.0 + t * t), 0.0))
+        ndotl = fn("max", fn("min", size_a + x["cos_r"], 1.0), 0.0)
+        return x["g"] * ndotl * inv * inv
 
 
 @register_area_model
@@ -270,6 +358,19 @@ class HdrpSphere(AreaModel):
         cap = 1 / jnp.where(x > 0, x, jnp.ones_like(x))
         return g * jnp.clip(p, 0, cap) * inv_d2
 
+    @area_shader(
+        "Unity HDRP AreaLighting.hlsl::DiffuseSphereLightIrradiance "
+        "(APPROXIMATE_SPHERE_LIGHT_NUMERICALLY)",
+        engine=True,
+        note="sinSqSigma = min(r^2/d^2, 0.9999); the form factor over r^2",
+    )
+    def shader_form(self, let, x, p):
+        s2 = let("x", fn("min", p["radius"] * p["radius"] / (x["d"] * x["d"]), 0.9999))
+        y = x["cos_r"]
+        poly = p["a0"] + s2 * (p["a1"] + s2 * (p["a2"] + s2 * p["a3"]))
+        ff = fn("saturate", s2 * (y + p["e"]) * (0.5 + (y - p["e"]) * poly))
+        return x["g"] * ff / (p["radius"] * p["radius"])
+
 
 @register_area_model
 class MrpSphere(AreaModel):
@@ -298,3 +399,17 @@ class MrpSphere(AreaModel):
         sin_t = safe_sqrt((1 - cos_r) * (1 + cos_r))
         nearest = jnp.where(cos_r >= ca, jnp.ones_like(cos_r), cos_r * ca + sin_t * safe_sqrt(s2))
         return g * (2 / (1 + ca)) * jnp.maximum(nearest, 0) * inv_d2
+
+    @area_shader(
+        "Drobot 2014 (GPU Pro 5) most representative point, via Frostbite 2014 section 4.7.2.5",
+        engine=False,
+        note="inside the radius, sin^2 a clamped to 1",
+    )
+    def shader_form(self, let, x, p):
+        inv = let("inv_d", 1.0 / fn("max", x["d"], p["radius"]))
+        s2 = let("sin2", fn("saturate", p["radius"] * p["radius"] * inv * inv))
+        ca = let("cos_a", fn("sqrt", 1.0 - s2))
+        c = x["cos_r"]
+        side = c * ca + fn("sqrt", fn("max", 1.0 - c * c, 0.0)) * fn("sqrt", s2)
+        near = fn("select", fn("ge", c, ca), 1.0, side)
+        return x["g"] * (2.0 / (1.0 + ca)) * fn("max", near, 0.0) * inv * inv

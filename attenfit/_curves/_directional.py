@@ -21,8 +21,10 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadValueError
+from .._ir import Lets, Ref, fn
 from . import _parts as parts
 from ._family import Family
+from ._forms import shader
 
 #: The floor on cos(theta_p) - cos(theta_u) used by Frostbite's `getAngleAtt` CPU side
 #: (`1/max(0.001, cosInner - cosOuter)`), the glTF KHR_lights_punctual reference code and
@@ -136,6 +138,13 @@ class SpotFalloff(Family):
     penumbra: eqx.AbstractVar[Float[ArrayLike, "*batch"]]
 
 
+def _spot_scale(let: Lets, umbra: Ref, penumbra: Ref) -> tuple[Ref, Ref]:
+    """`(cos umbra, 1/max(cos penumbra - cos umbra, MIN_COS_WIDTH))` as temporaries."""
+    cos_outer = let("cos_outer", fn("cos", umbra))
+    scale = let("scale", 1.0 / fn("max", fn("cos", penumbra) - cos_outer, 0.001))
+    return cos_outer, scale
+
+
 class SpotFrostbite(SpotFalloff):
     """Frostbite's spot falloff t^2 (`spot_frostbite`, RTR4 eq. 5.19)."""
 
@@ -150,6 +159,17 @@ class SpotFrostbite(SpotFalloff):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         return spot_frostbite(d, self.umbra, self.penumbra)
+
+    @shader(
+        "Filament shaders/src/light_punctual.fs::getAngleAttenuation (scale and offset as "
+        "LightManager.cpp::setSpotLightCone, floor 0.001 as Frostbite's getAngleAtt)",
+        engine=True,
+    )
+    def shader_form(self, let, d, umbra, penumbra):
+        cos_outer, scale = _spot_scale(let, umbra, penumbra)
+        offset = let("offset", -cos_outer * scale)
+        t = let("t", fn("saturate", d * scale + offset))
+        return t * t
 
 
 class SpotThreeJS(SpotFalloff):
@@ -166,6 +186,15 @@ class SpotThreeJS(SpotFalloff):
 
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
         return spot_threejs(d, self.umbra, self.penumbra)
+
+    @shader(
+        "three.js getSpotAttenuation: smoothstep(coneCos, penumbraCos, angleCos), written out",
+        engine=True,
+    )
+    def shader_form(self, let, d, umbra, penumbra):
+        cos_outer, scale = _spot_scale(let, umbra, penumbra)
+        t = let("t", fn("saturate", (d - cos_outer) * scale))
+        return t * t * (3.0 - 2.0 * t)
 
 
 SPOT_FALLOFFS: dict[str, type[SpotFalloff]] = {"frostbite": SpotFrostbite, "threejs": SpotThreeJS}

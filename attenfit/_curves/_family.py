@@ -14,7 +14,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from . import _parts as parts
-from ._model_base import Model
+from ._model_base import Model, no_shader_form
 
 __all__ = [
     "Family",
@@ -51,7 +51,8 @@ class Family(Model):
     arguments.
 
     Subclasses are final: they declare their parameters as fields with defaults, the class
-    variables below (and `Model`'s), and `__call__`.
+    variables below (and `Model`'s), `__call__` and `shader_form` (``shader_form =
+    no_shader_form`` where there is none).
     """
 
     kind = "family"
@@ -134,7 +135,14 @@ def register_family(cls: type[Family] | None = None, *, overwrite: bool = False)
             )
         if inspect.isabstract(klass):
             missing = sorted(getattr(klass, "__abstractmethods__", ()))
-            raise BadTypeError(f"family class {klass.__name__} is abstract (missing {missing})")
+            hint = (
+                "; a family without a shader form says `shader_form = attenfit.no_shader_form`"
+                if "shader_form" in missing
+                else ""
+            )
+            raise BadTypeError(
+                f"family class {klass.__name__} is abstract (missing {missing}){hint}"
+            )
         name = getattr(klass, "name", None)
         if not isinstance(name, str) or not name.isidentifier():
             raise BadValueError(
@@ -179,6 +187,7 @@ def family_from_function(
     source: str,
     default_free: tuple[str, ...] | None = None,
     register: bool = False,
+    shader_form: Callable[[Family], Any] | None = None,
     **properties: Any,
 ) -> type[Family]:
     """Make a `Family` class from a plain function ``fn(d, **params) -> f``.
@@ -186,8 +195,10 @@ def family_from_function(
     `defaults` gives the parameters (their order and default values); the remaining class
     variables (`constraints`, `singular`, `range_param`, `window`, `monotone`,
     `tends_to_inverse_square`, `length_params`, `units`, `scale_covariant`, `range_tie`,
-    `at_radius`, `inverse_linear`, `knots_param`) may be passed as keywords. `default_free` defaults to every parameter. `fn` receives `d` and the parameters
-    as given (call `attenfit.parts.promote` inside it to share one dtype). With
+    `at_radius`, `inverse_linear`, `knots_param`) may be passed as keywords. `default_free`
+    defaults to every parameter. `fn` receives `d` and the parameters as given (call
+    `attenfit.parts.promote` inside it to share one dtype). `shader_form(self) ->
+    ShaderForm` is the class's shader form (default: none, `no_shader_form`). With
     ``register=True`` the class is also registered (see `register_family`).
     """
     if not callable(fn):
@@ -214,6 +225,7 @@ def family_from_function(
         "__annotations__": dict.fromkeys(params, Any),
         **params,
         "__call__": __call__,
+        "shader_form": no_shader_form if shader_form is None else shader_form,
         "__doc__": fn.__doc__ or f"{name}: {formula} ({source})",
         "__module__": getattr(fn, "__module__", __name__),
         "name": name,
@@ -265,9 +277,6 @@ def jit_call(call):
         return jitted(self, jnp.asarray(d))
 
     return wrapper
-
-
-Out = Float[Array, "*shape"]
 
 
 def float32_family(family: Family) -> Family:

@@ -3,13 +3,16 @@ rational distance warps of the follow-up post (Madams 2011b)."""
 
 from __future__ import annotations
 
+import math
 from typing import ClassVar
 
 import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
+from .._ir import Expr, Ref, fn
 from . import _parts as parts
 from ._family import Family, Out, Param, jit_call, register_family
+from ._forms import shader
 
 __all__ = ["MadamsCutoff", "MadamsRational", "MadamsSphere", "MadamsTan"]
 
@@ -26,6 +29,12 @@ def _warped_sphere(warp, d: Float[ArrayLike, "*shape"], r: Param, d_max: Param) 
     warped, inside = warp(parts.surface_distance(d, r), d_max, gap)
     f = parts.surface_sphere(warped, r)
     return parts.keep_nan(d, jnp.where(inside, f, jnp.zeros_like(f)))
+
+
+def _warped_form(let, r: Ref, d_max: Ref, warped: Expr, ds: Ref) -> Expr:
+    """The shader form of `_warped_sphere`: 1/(d' + r)^2 while d_s < d_max, else 0."""
+    x = let("x", warped + r)
+    return fn("select", ds < d_max, 1.0 / (x * x), 0.0)
 
 
 # ----------------------------------------------------------------------------- Madams
@@ -56,6 +65,15 @@ class MadamsSphere(Family):
         return parts.keep_nan(
             d, parts.surface_sphere(parts.surface_distance(parts.distance(d), r), r)
         )
+
+    @shader(
+        "Madams 2011 and its comments: r^2/D^2 clamped at the surface, over r^2",
+        engine=False,
+        note="1/max(d, r)^2 (the reference adds r back to max(d - r, 0))",
+    )
+    def shader_form(self, let, d, r):
+        m = let("m", fn("max", d, r))
+        return 1.0 / (m * m)
 
 
 @register_family
@@ -88,6 +106,17 @@ class MadamsCutoff(Family):
         d, r, c = parts.promote(d, self.r, self.cutoff)
         return parts.keep_nan(d, parts.cutoff_bias(parts.distance(d), r, c) / (r * r))
 
+    @shader(
+        "Madams 2011, Light attenuation (GLSL DirectIllumination): scale and bias by the cutoff",
+        engine=False,
+        note="a - cutoff cancels near the range r/sqrt(cutoff) (the reference factors it)",
+    )
+    def shader_form(self, let, d, r, cutoff):
+        r_sqr = let("r_sqr", r * r)
+        scale = let("scale", 1.0 / ((1.0 - cutoff) * r_sqr))
+        m = let("m", fn("max", d, r))
+        return fn("max", r_sqr / (m * m) - cutoff, 0.0) * scale
+
 
 @register_family
 class MadamsTan(Family):
@@ -119,6 +148,16 @@ class MadamsTan(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         return _warped_sphere(parts.tan_warp, d, self.r, self.d_max)
 
+    @shader(
+        "Madams 2011b, Improved light attenuation: the tan warp (2 d_max/pi for the post's 2.1)",
+        engine=False,
+        note="tan near its pole as written (the reference uses 1/tan of the complement there)",
+    )
+    def shader_form(self, let, d, r, d_max):
+        k = let("k", (2.0 / math.pi) * d_max)
+        ds = let("ds", fn("max", d - r, 0.0))
+        return _warped_form(let, r, d_max, k * fn("tan", ds / k), ds)
+
 
 @register_family
 class MadamsRational(Family):
@@ -147,3 +186,14 @@ class MadamsRational(Family):
     @jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         return _warped_sphere(parts.rational_warp, d, self.r, self.d_max)
+
+    @shader(
+        "Madams 2011b, Improved light attenuation: the rational warp d/(1 - (d/d_max)^2)",
+        engine=False,
+        note="1 - (d/d_max)^2 cancels near the range (the reference factors it)",
+    )
+    def shader_form(self, let, d, r, d_max):
+        inv_d_max = let("inv_d_max", 1.0 / d_max)
+        ds = let("ds", fn("max", d - r, 0.0))
+        u = let("u", ds * inv_d_max)
+        return _warped_form(let, r, d_max, ds / (1.0 - u * u), ds)

@@ -4,8 +4,9 @@
 A model is a small immutable `eqx.Module` whose parameters are its non-static fields (or,
 for `PointLight(family)`, its family's: `params_field`). What a model *is* lives on its
 class: name, formula, source, the parameters a fit frees, each parameter's constraint and
-power of length; everything here reads those facts and is final (subclasses override only
-the abstract members, `evaluate` and the class variables).
+power of length; and how it is written in a shader (`shader_form`, an expression of
+`attenfit._ir`). Everything here reads those facts and is final (subclasses override only
+the abstract members, `evaluate`, `shader_form` and the class variables).
 """
 
 import abc
@@ -19,8 +20,9 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
+from .._ir import ShaderForm
 
-__all__ = ["CONSTRAINTS", "Model"]
+__all__ = ["CONSTRAINTS", "Model", "no_shader_form"]
 
 #: The kinds of constraint a parameter can carry (see `Model.constraints`).
 CONSTRAINTS = ("positive", "nonnegative", "unit", "real")
@@ -82,6 +84,20 @@ class Model(eqx.Module):
     def evaluate(self, x: Float[ArrayLike, "*rows n"]) -> Float[Array, " n"]:
         """The model at its samples' inputs: a family's distances `d`, an area model's
         stacked `AreaInputs` (`inputs` rows). What a fit evaluates."""
+
+    @abc.abstractmethod
+    def shader_form(self) -> ShaderForm | None:
+        """The model's expression in a shader (`attenfit._ir.ShaderForm`): the engine's code
+        it cites, or the textbook formula, without the JAX form's guards (`_forms`). What
+        `attenfit._shaders` prints, evaluates in float16/32, compiles and exports.
+
+        None only for a class that says it has none, `shader_form = no_shader_form` (its
+        export prints the guarded form traced from the JAX code instead)."""
+
+    @classmethod
+    def has_shader_form(cls) -> bool:
+        """Whether instances have a shader form (the class does not say `no_shader_form`)."""
+        return cls._params_home().shader_form is not no_shader_form
 
     # ------------------------------------------------------------------ class facts
     @classmethod
@@ -189,6 +205,13 @@ class Model(eqx.Module):
             return dataclasses.replace(self, **values)
         owner = self._params_owner()
         return dataclasses.replace(self, **{cls.params_field: owner.replace(**values)})
+
+
+def no_shader_form(self: Model) -> None:
+    """The `shader_form` of a model without one: a class says ``shader_form = no_shader_form``
+    (a spline with no published formula, a user's own family). `export` then prints the
+    guarded form traced from the JAX code."""
+    return None
 
 
 def _check_param(family: str, name: str, value: Any, kind: str) -> None:

@@ -9,8 +9,10 @@ from typing import ClassVar
 import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
+from .._ir import fn
 from . import _parts as parts
 from ._family import Family, Out, Param, jit_call, register_family
+from ._forms import OVERFLOW, shader
 
 __all__ = [
     "Clamped",
@@ -45,6 +47,10 @@ class InverseSquare(Family):
         (d,) = parts.promote(d)
         return parts.keep_nan(d, parts.inverse_square(parts.distance(d)))
 
+    @shader("RTR4 eq. 5.11 (textbook)", engine=False, note=OVERFLOW)
+    def shader_form(self, let, d):
+        return 1.0 / (d * d)
+
 
 @register_family
 class UnrealEpsilon(Family):
@@ -72,6 +78,15 @@ class UnrealEpsilon(Family):
         d, eps = parts.promote(d, self.eps)
         return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), jnp.sqrt(eps)))
 
+    @shader(
+        "Unreal CapsuleLightIntegrate.ush (Falloff = 1/(DistSqr + DistBiasSqr), DistBiasSqr "
+        "from DeferredLightingCommon.ush::GetCapsule); described, not copied",
+        engine=True,
+        note=OVERFLOW,
+    )
+    def shader_form(self, let, d, eps):
+        return 1.0 / (d * d + eps)
+
 
 @register_family
 class Clamped(Family):
@@ -97,6 +112,11 @@ class Clamped(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r_min = parts.promote(d, self.r_min)
         return parts.keep_nan(d, parts.clamped_inverse_square(parts.distance(d), r_min))
+
+    @shader("RTR4 eq. 5.13 (textbook)", engine=False, note=OVERFLOW)
+    def shader_form(self, let, d, r_min):
+        m = let("m", fn("max", d, r_min))
+        return 1.0 / (m * m)
 
 
 # ----------------------------------------------------------------------------- Yuksel and disk
@@ -128,6 +148,16 @@ class Yuksel(Family):
         d, r = parts.promote(d, self.r)
         return parts.keep_nan(d, parts.yuksel(parts.distance(d), r))
 
+    @shader(
+        "Blender EEVEE eevee_light_lib.glsl::light_point_light (Yuksel 2020's rewrite of eq. 7)",
+        engine=True,
+        note=OVERFLOW + "; no hypot",
+    )
+    def shader_form(self, let, d, r):
+        d_sqr = let("d_sqr", d * d)
+        r_sqr = let("r_sqr", r * r)
+        return 2.0 / (d_sqr + r_sqr + d * fn("sqrt", d_sqr + r_sqr))
+
 
 @register_family
 class YukselAdhoc(Family):
@@ -156,6 +186,11 @@ class YukselAdhoc(Family):
             d, parts.softened_inverse_square(parts.distance(d), r * math.sqrt(0.5))
         )
 
+    @shader("Yuksel 2020 eq. 8 (textbook)", engine=False, note=OVERFLOW)
+    def shader_form(self, let, d, r):
+        half_r_sqr = let("half_r_sqr", 0.5 * (r * r))
+        return 1.0 / (d * d + half_r_sqr)
+
 
 @register_family
 class DiskFacing(Family):
@@ -182,6 +217,10 @@ class DiskFacing(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, r = parts.promote(d, self.r)
         return parts.keep_nan(d, parts.softened_inverse_square(parts.distance(d), r))
+
+    @shader("Howell catalogue B-12 (closed form)", engine=False, note=OVERFLOW)
+    def shader_form(self, let, d, r):
+        return 1.0 / (d * d + r * r)
 
 
 @register_family
@@ -220,3 +259,11 @@ class Polynomial(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, kc, kl, kq = parts.promote(d, self.kc, self.kl, self.kq)
         return parts.keep_nan(d, parts.polynomial(parts.distance(d), kc, kl, kq))
+
+    @shader(
+        "OpenGL glLight fixed-function attenuation, in Horner's form",
+        engine=False,
+        note="one polynomial for every d (the reference switches to 1/d at d > 1)",
+    )
+    def shader_form(self, let, d, kc, kl, kq):
+        return 1.0 / (kc + d * (kl + kq * d))

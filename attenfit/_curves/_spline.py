@@ -15,6 +15,7 @@ from jaxtyping import ArrayLike, Float
 from .._errors import BadValueError
 from . import _parts as parts
 from ._family import Family, Out, jit_call, register_family
+from ._model_base import no_shader_form
 
 __all__ = ["Spline"]
 
@@ -50,6 +51,8 @@ class Spline(Family):
     constraints: ClassVar = {"knot_values": "real"}
     monotone = False
     knots_param = "knot_values"
+    #: Tomb Raider published no formula: `export` prints the guarded form of the JAX code.
+    shader_form = no_shader_form
 
     def __check_init__(self):
         knots = tuple(float(k) for k in self.knots)

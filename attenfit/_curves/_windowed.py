@@ -9,8 +9,10 @@ import equinox as eqx
 import jax.numpy as jnp
 from jaxtyping import ArrayLike, Float
 
+from .._ir import fn
 from . import _parts as parts
 from ._family import Family, Out, Param, jit_call, register_family
+from ._forms import OVERFLOW, shader
 
 __all__ = [
     "CryEngineLinear",
@@ -22,6 +24,9 @@ __all__ = [
     "UnrealExponent",
     "UnrealWindow",
 ]
+
+#: The `note` of a form with the engines' 1 - x^4 window.
+_WINDOW = "1 - x^4 cancels near the range (the reference factors it); " + OVERFLOW
 
 
 # ----------------------------------------------------------------------------- windowed engines
@@ -54,6 +59,19 @@ class UnrealWindow(Family):
         return parts.keep_nan(
             d, parts.softened_inverse_square(d, jnp.sqrt(eps)) * parts.smooth_window(d, r_max)
         )
+
+    @shader(
+        "Unreal DeferredLightingCommon.ush::GetLocalLightAttenuation (LightMask) over "
+        "CapsuleLightIntegrate.ush's 1/(DistSqr + DistBiasSqr); described, not copied",
+        engine=True,
+        note=_WINDOW,
+    )
+    def shader_form(self, let, d, eps, r_max):
+        inv_r_sqr = let("inv_r_sqr", 1.0 / (r_max * r_max))
+        dist_sqr = let("dist_sqr", d * d)
+        t = let("t", dist_sqr * inv_r_sqr)
+        mask = let("mask", fn("saturate", 1.0 - t * t))
+        return mask * mask / (dist_sqr + eps)
 
 
 @register_family
@@ -88,6 +106,21 @@ class FrostbiteWindow(Family):
             d, parts.clamped_inverse_square(d, r_min) * parts.smooth_window(d, r_max)
         )
 
+    @shader(
+        "Filament shaders/src/light_punctual.fs::getSquareFalloffAttenuation and "
+        "getDistanceAttenuation (falloff = 1/r_max^2 from LightManager.cpp::setFalloff)",
+        engine=True,
+        note=_WINDOW + "; the clamp is on d^2 (max(d^2, r_min^2), as Filament's 1e-4)",
+    )
+    def shader_form(self, let, d, r_min, r_max):
+        falloff = let("falloff", 1.0 / (r_max * r_max))
+        r_min_sqr = let("r_min_sqr", r_min * r_min)
+        distance_square = let("distanceSquare", d * d)
+        factor = let("factor", distance_square * falloff)
+        smooth = let("smoothFactor", fn("saturate", 1.0 - factor * factor))
+        attenuation = let("attenuation", smooth * smooth)
+        return attenuation / fn("max", distance_square, r_min_sqr)
+
 
 @register_family
 class Godot(Family):
@@ -119,6 +152,19 @@ class Godot(Family):
         return parts.keep_nan(
             d, parts.smooth_window(d, r_max) * parts.power_min_distance(d, a, 1e-4)
         )
+
+    @shader(
+        "Godot servers/rendering/renderer_rd/shaders/scene_forward_lights_inc.glsl::"
+        "get_omni_attenuation (inv_range = 1/range from light_storage.cpp)",
+        engine=True,
+        note="1 - x^4 cancels near the range (the reference factors it); pow as the engine",
+    )
+    def shader_form(self, let, d, a, r_max):
+        inv_range = let("inv_range", 1.0 / r_max)
+        nd = let("nd", d * inv_range)
+        nd2 = let("nd2", nd * nd)
+        window = let("window", fn("max", 1.0 - nd2 * nd2, 0.0))
+        return window * window * fn("pow", fn("max", d, 0.0001), -a)
 
 
 @register_family
@@ -156,6 +202,18 @@ class CryEngineLinear(Family):
         fade = parts.linear_tail_window(d, r_max, 0.2, 2 if self.squared else 1)
         return parts.keep_nan(d, parts.clamped_inverse_square(d, r_min) * fade)
 
+    @shader(
+        "CRYENGINE Engine/Shaders/HWScripts/CryFX/shadeLib.cfi::GetPhysicalLightAttenuation, "
+        "divided by the bulb size squared",
+        engine=True,
+        note="1/(1 + max(d - b, 0)/b)^2 / b^2 written as 1/max(d, b)^2; " + OVERFLOW,
+    )
+    def shader_form(self, let, d, r_min, r_max):
+        k = let("k", (1.0 / r_max) / 0.2)
+        fade = let("fade", fn("saturate", (r_max - d) * k))
+        m = let("m", fn("max", d, r_min))
+        return (fade * fade if self.squared else fade) / (m * m)
+
 
 @register_family
 class JustCause2(Family):
@@ -183,6 +241,16 @@ class JustCause2(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, scale, r_max = parts.promote(d, self.scale, self.r_max)
         return parts.keep_nan(d, scale * parts.smooth_window(parts.distance(d), r_max, 2, 2))
+
+    @shader(
+        "RTR4 section 5.2.2 (Just Cause 2; textbook)",
+        engine=False,
+        note="1 - x^2 cancels near the range (the reference factors it)",
+    )
+    def shader_form(self, let, d, scale, r_max):
+        inv_r_sqr = let("inv_r_sqr", 1.0 / (r_max * r_max))
+        w = let("w", fn("max", 1.0 - d * d * inv_r_sqr, 0.0))
+        return scale * (w * w)
 
 
 @register_family
@@ -213,6 +281,16 @@ class UnrealExponent(Family):
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, scale, r_max, p = parts.promote(d, self.scale, self.r_max, self.p)
         return parts.keep_nan(d, scale * parts.smooth_window(parts.distance(d), r_max, 2, p))
+
+    @shader(
+        "Unreal DynamicLightingCommon.ush::RadialAttenuation; described, not copied",
+        engine=True,
+        note="1 - x^2 cancels near the range (the reference factors it); pow as the engine",
+    )
+    def shader_form(self, let, d, scale, r_max, p):
+        inv_r = let("inv_r", 1.0 / r_max)
+        t = let("t", d * inv_r)
+        return scale * fn("pow", 1.0 - fn("saturate", t * t), p)
 
 
 @register_family
@@ -245,6 +323,21 @@ class ThreeJS(Family):
         return parts.keep_nan(
             d, parts.power_clamped_value(d, decay, 0.01) * parts.smooth_window(d, cutoff)
         )
+
+    @shader(
+        "three.js src/renderers/shaders/ShaderChunk/lights_pars_begin.glsl.js::"
+        "getDistanceAttenuation (and src/nodes/lighting/LightUtils.js)",
+        engine=True,
+        note="1 - x^4 cancels near the cutoff (the reference factors it); d/cutoff as d * "
+        "(1/cutoff)",
+    )
+    def shader_form(self, let, d, decay, cutoff):
+        inv_cutoff = let("inv_cutoff", 1.0 / cutoff)
+        falloff = let("distanceFalloff", 1.0 / fn("max", fn("pow", d, decay), 0.01))
+        x = let("x", d * inv_cutoff)
+        x2 = let("x2", x * x)
+        w = let("w", fn("saturate", 1.0 - x2 * x2))
+        return falloff * (w * w)
 
 
 @register_family
@@ -280,3 +373,17 @@ class GltfRange(Family):
         f_near = parts.inverse_square(d) - (x / rng) * (x / rng)
         f_far = parts.inverse_square(jnp.where(near, rng, d)) * parts.smooth_window(d, rng, 4, 1)
         return parts.keep_nan(d, jnp.where(near, f_near, f_far))
+
+    @shader(
+        "glTF KHR_lights_punctual README, Range Property; glTF-Sample-Viewer "
+        "source/Renderer/shaders/punctual.glsl::getRangeAttenuation (pow written as "
+        "products)",
+        engine=True,
+        note="1 - x^4 cancels near the range, 1/d^2 as 1/(d*d) (the reference splits at "
+        "range/2); " + OVERFLOW,
+    )
+    def shader_form(self, let, d, range_):
+        inv_range = let("inv_range", 1.0 / range_)
+        x = let("x", d * inv_range)
+        x2 = let("x2", x * x)
+        return fn("clamp", 1.0 - x2 * x2, 0.0, 1.0) / (d * d)

@@ -5,6 +5,11 @@ Imports the curves, truth, fitting and shaders stages, and nothing above. The re
 scene stage decide through it.
 """
 
+from ._engine_shading import WITNESSES as WITNESSES
+from ._engine_shading import EngineWitness as EngineWitness
+from ._engine_shading import engine_receiver_errors as engine_receiver_errors
+from ._engine_shading import fast_cos as fast_cos
+from ._engine_shading import get_witness as get_witness
 from ._rank import Contender as Contender
 from ._rank import Ranking as Ranking
 from ._rank import rank as rank

@@ -17,7 +17,7 @@ from ._files import ImportedScene, load_mesh_scene
 from ._light_fits import light_data
 from ._recommend import recommend
 
-__all__ = ["FileAnswer", "answer_file"]
+__all__ = ["FileAnswer", "answer_file", "answer_scene"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,7 +38,12 @@ class FileAnswer:
             if c.range is not None and c.range.get("range"):
                 rng = f", range {c.range['range']:.3g} m"
             mark = "" if c.status == "pass" else " (closest, over tolerance)"
-            parts.append(f"{c.name}: {c.family}{mark}{rng}, checked error {pct(c.checked_error)}")
+            error = f", checked error {pct(c.checked_error)}"  # the error of what is written
+            if c.engine_error is not None:
+                word = "" if c.status == "pass" else "fail, closest "
+                mark = f" ({word}{pct(c.engine_error)} as the engine renders it)"
+                error = ""
+            parts.append(f"{c.name}: {c.family}{mark}{rng}{error}")
         return "; ".join(parts)
 
     def to_markdown(self) -> str:
@@ -110,7 +115,7 @@ def answer_file(path: str | os.PathLike, *, measure: bool = False, **options: An
     """Read the USD or glTF scene `path` and answer it per light.
 
     `options` are those of `load_mesh_scene` (side, tolerance, precision, threshold,
-    samples, radius, engine, strict, seed, notice). Computed in float64 whatever the caller's
+    samples, radius, engine, strict, seed, time, notice). Computed in float64 whatever the caller's
     `jax_enable_x64`.
     """
     imported = load_mesh_scene(path, **options)
@@ -120,4 +125,34 @@ def answer_file(path: str | os.PathLike, *, measure: bool = False, **options: An
     rec = recommend(scene, measure=measure, truths=truths)
     datas = [light_data(scene, t) for t in truths]
     _progress.stage("per-light choices" + (" and ranges" if imported.threshold else ""))
+    return FileAnswer(imported, rec, light_choices(imported, rec, datas))
+
+
+@in_float64
+def answer_scene(scene, engine: str, *, threshold: float | None = None) -> FileAnswer:
+    """A TOML `Scene` answered per light for `engine` as a file is (`answer_file`): each
+    light's family, range and engine properties, judged through the engine's own shading."""
+    from ._engine import get_engine
+    from ._files import engine_scene
+
+    eng = get_engine(engine)
+    scene = engine_scene(scene, eng)
+    truths = scene.ground_truth()
+    rec = recommend(scene, truths=truths)
+    datas = [light_data(scene, t) for t in truths]
+    n = len(scene.lights)
+    imported = ImportedScene(
+        scene=scene,
+        path=Path(scene.source or scene.name or "scene.toml"),
+        format="toml",
+        names=tuple(f"light {k} ({x.kind})" for k, x in enumerate(scene.lights)),
+        refs=tuple(range(n)),
+        file_kinds=tuple(x.kind for x in scene.lights),
+        published_ranges=tuple(x.range for x in scene.lights),
+        samples=max(len(x.d) for x in datas),
+        drawn=(),
+        threshold=threshold,
+        engine=eng,
+        notices=(),
+    )
     return FileAnswer(imported, rec, light_choices(imported, rec, datas))

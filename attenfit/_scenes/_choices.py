@@ -27,10 +27,11 @@ from typing import Any
 import numpy as np
 
 from .._curves import Family, get_family
-from .._errors import AttenfitError
+from .._errors import AttenfitError, BadValueError
 from .._judge import rank
 from ._advice import Candidate, Recommendation, param_text, pct
 from ._engine import Engine
+from ._engine_fit import engine_verdict, renders_as_spot
 from ._files import ImportedScene
 from ._light_fits import LightData, _range_param, fit_group, fit_plan, judged_errors, shade
 
@@ -63,6 +64,10 @@ class LightChoice:
     checked: tuple[np.ndarray, np.ndarray] | None = dataclasses.field(
         default=None, repr=False, compare=False
     )
+    #: with an engine: the largest error of what the engine renders with `properties` at
+    #: the light's judged receivers (`_engine_fit`), the error this answer vouches for
+    engine_error: float | None = None
+    engine_notes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -79,7 +84,14 @@ class LightChoice:
             "range": None if self.range is None else dict(self.range),
             "properties": dict(self.properties),
             "checked_error": self.checked_error,
+            "engine_error": self.engine_error,
+            "engine_notes": list(self.engine_notes),
         }
+
+    @property
+    def claimed_error(self) -> float | None:
+        """The error this answer vouches for: the engine-rendered one with an engine."""
+        return self.engine_error if self.engine_error is not None else self.checked_error
 
 
 def pick_for_light(
@@ -131,6 +143,8 @@ def _subset(x: LightData, keep: np.ndarray, R: float | None) -> LightData:
         theta=x.theta[keep],
         denom=x.denom[keep],
         range=R,
+        points=None if x.points is None else x.points[keep],
+        normals=None if x.normals is None else x.normals[keep],
     )
 
 
@@ -171,6 +185,7 @@ def range_trade(
     pins: Mapping[str, float] | None = None,
     reference: float | None = None,
     chunk: int = 4,
+    candidates: Sequence[float] = (),
 ) -> tuple[dict[str, Any], Family | None]:
     """The smallest range of `family` for one light (module docstring): a summary dict and
     the refitted model at that range (None when no range within `16 d_vis` passes)."""
@@ -184,7 +199,8 @@ def range_trade(
     g = _g(spot_model, sub, precision)
     d_vis = float(sub.d.max())
     out["d_visible"] = d_vis
-    grid = d_vis * np.geomspace(1.0 + 1e-6, _SPAN, _GRID)
+    extra = sorted(float(c) for c in candidates if d_vis < float(c) < _SPAN * d_vis)
+    grid = np.unique(np.concatenate([d_vis * np.geomspace(1.0 + 1e-6, _SPAN, _GRID), extra]))
     models, errs = _fit_at(cls, x, vis, grid, pins, precision, g, chunk)
     ok = [k for k, e in enumerate(errs) if e <= tolerance]
     if not ok:
@@ -228,85 +244,157 @@ def _plain(model: Family) -> dict[str, Any]:
     return out
 
 
+def _spot_of(pick: Candidate, i: int, light, engine: Engine | None):
+    """(the fitted spot falloff model, the spot dict handed to the engine): a disk is a
+    90-degree spot for an engine (its cone then fitted to the disk's cosine)."""
+    spot_model = pick.spot_models[i] if pick.spot_models else None
+    if spot_model is not None:
+        return spot_model, {
+            "falloff": pick.directional,
+            "umbra": math.degrees(float(spot_model.umbra)),
+            "penumbra": math.degrees(float(spot_model.penumbra)),
+        }
+    if engine is not None and renders_as_spot(light):
+        return None, {"falloff": "engine cone (the disk's cosine)", "umbra": 90.0, "penumbra": 0.0}
+    return None, None
+
+
+def _trade(imported, x, light, pick, spot_model, i) -> tuple[dict[str, Any] | None, Any]:
+    """The range trade for light `i` (module docstring): with a threshold, the published
+    range is one candidate among the grid's; without one, a light with no published range
+    gets a range for the scene's extent (every lit receiver visible). (summary, refit)."""
+    scene, engine = imported.scene, imported.engine
+    published = imported.published_ranges[i]
+    threshold = imported.threshold
+    if threshold is None:
+        if published is not None or engine is None:
+            return None, None
+        threshold = 0.0  # no threshold: every lit receiver counts (the scene's extent)
+    ref = published if published is not None else (engine.default_range if engine else None)
+    pins = engine.fixed.get(pick.family) if engine is not None else None
+    trade, refit = range_trade(
+        pick.family, x, light,
+        threshold=threshold, tolerance=scene.tolerance,
+        precision=scene.precision, spot_model=spot_model, pins=pins, reference=ref,
+        chunk=max(2, 1 << max(0, (len(scene.lights) - 1).bit_length())),
+        candidates=() if published is None else (published,),
+    )  # fmt: skip
+    if imported.threshold is None:
+        trade["note"] = (
+            "no threshold: the range is chosen for the scene's extent (the smallest that keeps "
+            "every lit receiver within tolerance)"
+        )
+    return trade, refit
+
+
+def _ran_away(model: Family, x: LightData) -> float | None:
+    """The range of `model` if it ran away in a fit (not finite, or past 1e4 x the farthest
+    receiver), else None."""
+    rp = _range_param(type(model))
+    if rp is None:
+        return None
+    R = float(np.asarray(model.params()[rp]))
+    return R if not math.isfinite(R) or R > 1e4 * float(x.d.max()) else None
+
+
+def _pin_range(imported, i: int, model: Family, x: LightData, spot_model) -> Family:
+    """`model` refitted with its range pinned at the scene's extent (`_SPAN` x the farthest
+    receiver) when its fitted range ran away; a range that still runs away is refused,
+    naming the file and the light (`_check_range`)."""
+    if _ran_away(model, x) is None:
+        return model
+    scene, engine = imported.scene, imported.engine
+    pins = engine.fixed.get(model.name) if engine is not None else None
+    vis = np.ones(len(x.d), bool)
+    g = _g(spot_model, x, scene.precision)
+    try:
+        (refit,), _ = _fit_at(
+            type(model), x, vis, [_SPAN * float(x.d.max())], pins, scene.precision, g, 2
+        )
+    except AttenfitError:
+        refit = model
+    _check_range(imported, i, refit, x)
+    return refit
+
+
+def _check_range(imported, i: int, model: Family, x: LightData) -> None:
+    """A range that ran away in a fit is refused, naming the file and the light."""
+    R = _ran_away(model, x)
+    if R is not None:
+        rp = _range_param(type(model))
+        raise BadValueError(
+            f"{imported.path.name}: light {imported.names[i]!r}: the fitted {model.name} "
+            f"range {rp} = {R:.3g} ran away (the farthest receiver is {float(x.d.max()):.3g} m); "
+            "give the light a range or a --threshold"
+        )
+
+
+def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightChoice:
+    scene, engine = imported.scene, imported.engine
+    light = scene.lights[i]
+    windowed = imported.threshold is not None
+    pick, status = pick_for_light(rec.candidates, i, scene.tolerance, windowed=windowed)
+    if pick is None:
+        return LightChoice(
+            i, imported.names[i], imported.file_kinds[i], len(x.d), None, "fail",
+            {}, None, None, None, None, {}, None,
+        )  # fmt: skip
+    spot_model, spot = _spot_of(pick, i, light, engine)
+    trade, final = None, pick.models[i]
+    no_range = imported.published_ranges[i] is None and engine is not None
+    if _is_windowed(pick) and (status == "pass" or imported.threshold is not None or no_range):
+        trade, refit = _trade(imported, x, light, pick, spot_model, i)
+        if refit is not None:
+            final = refit
+            status = "pass"
+    final = _pin_range(imported, i, final, x, spot_model)
+    # the check: the final curve against the exact irradiance at the judged receivers
+    keep = np.ones(len(x.d), bool)
+    if trade is not None and trade.get("range"):
+        keep = x.E_true > trade["threshold"]
+    sub = _subset(x, keep, None)
+    f = shade(final, sub.d, scene.precision)
+    errs = judged_errors(sub, f, _g(spot_model, sub, scene.precision))
+    params = _plain(final)
+    props: dict[str, Any] = {}
+    verdict = None
+    if engine is not None and pick.family in engine.families:
+        props = engine.properties(pick.family, params, light, spot)
+        verdict = engine_verdict(
+            engine.witness, light, props, sub, scene.tolerance,
+            engine.size_prop, engine.size_unit * light.radius,
+        )  # fmt: skip
+        props, status = dict(verdict.properties), verdict.status
+    return LightChoice(
+        light=i,
+        name=imported.names[i],
+        file_kind=imported.file_kinds[i],
+        receivers=len(x.d),
+        family=pick.family,
+        status=status,
+        params=params,
+        error=float(pick.error_by_light[i]),
+        shader_cost=pick.shader_cost,
+        spot=spot,
+        range=trade,
+        properties=props,
+        checked_error=float(errs.max()),
+        model=final,
+        checked=(sub.d, errs if verdict is None else verdict.errors),
+        engine_error=None if verdict is None else verdict.error,
+        engine_notes=() if verdict is None else verdict.notes,
+    )
+
+
 def light_choices(
     imported: ImportedScene,
     rec: Recommendation,
     datas: Sequence[LightData],
 ) -> tuple[LightChoice, ...]:
     """The answer for every light of `imported` from its recommendation `rec` (and the
-    lights' judged receivers `datas`), with the range trade when there is a threshold."""
-    scene = imported.scene
-    engine: Engine | None = imported.engine
-    out = []
-    for i, light in enumerate(scene.lights):
-        x = datas[i]
-        pick, status = pick_for_light(
-            rec.candidates, i, scene.tolerance, windowed=imported.threshold is not None
-        )
-        if pick is None:
-            out.append(
-                LightChoice(
-                    i, imported.names[i], imported.file_kinds[i], len(x.d), None, "fail",
-                    {}, None, None, None, None, {}, None,
-                )
-            )  # fmt: skip
-            continue
-        model = pick.models[i]
-        spot_model = pick.spot_models[i] if pick.spot_models else None
-        spot = None
-        if spot_model is not None:
-            spot = {
-                "falloff": pick.directional,
-                "umbra": math.degrees(float(spot_model.umbra)),
-                "penumbra": math.degrees(float(spot_model.penumbra)),
-            }
-        trade = None
-        final = model
-        if imported.threshold is not None and status == "pass" and _is_windowed(pick):
-            ref = imported.published_ranges[i]
-            if ref is None and engine is not None:
-                ref = engine.default_range
-            pins = engine.fixed.get(pick.family) if engine is not None else None
-            trade, refit = range_trade(
-                pick.family, x, light,
-                threshold=imported.threshold, tolerance=scene.tolerance,
-                precision=scene.precision, spot_model=spot_model, pins=pins, reference=ref,
-                chunk=max(2, 1 << max(0, (len(scene.lights) - 1).bit_length())),
-            )  # fmt: skip
-            if refit is not None:
-                final = refit
-        # the check: the final curve against the exact irradiance at the judged receivers
-        keep = np.ones(len(x.d), bool)
-        if trade is not None and trade.get("range"):
-            keep = x.E_true > imported.threshold
-        sub = _subset(x, keep, None)
-        f = shade(final, sub.d, scene.precision)
-        errs = judged_errors(sub, f, _g(spot_model, sub, scene.precision))
-        checked = float(errs.max())
-        params = _plain(final)
-        props: dict[str, Any] = {}
-        if engine is not None and pick.family in engine.families:
-            props = engine.properties(pick.family, params, light, spot)
-        out.append(
-            LightChoice(
-                light=i,
-                name=imported.names[i],
-                file_kind=imported.file_kinds[i],
-                receivers=len(x.d),
-                family=pick.family,
-                status=status,
-                params=params,
-                error=float(pick.error_by_light[i]),
-                shader_cost=pick.shader_cost,
-                spot=spot,
-                range=trade,
-                properties=props,
-                checked_error=checked,
-                model=final,
-                checked=(sub.d, errs),
-            )
-        )
-    return tuple(out)
+    lights' judged receivers `datas`), with the range trade, and with an engine, judged
+    through the engine's own shading (`_engine_fit`)."""
+    return tuple(_one_choice(imported, rec, i, datas[i]) for i in range(len(datas)))
 
 
 def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) -> str:
@@ -322,8 +410,10 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         "curve (its parameters and range) against the exact irradiance at the light's "
         "receivers (those above the threshold, with one).",
         "",
-        "| light | kind | receivers | family | params | error, far range | checked error | range | volume saved |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| light | kind | receivers | family | params | error, far range | checked error |"
+        + (" engine-rendered error |" if eng else "")
+        + " range | volume saved |",
+        "|---|---|---|---|---|---|---|" + ("---|" if eng else "") + "---|---|",
     ]
     for c in choices:
         radius = imported.scene.lights[c.light].radius
@@ -342,10 +432,13 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
                     saved = f"{pct(v)} of {ref:g} m's"
                 else:
                     saved = f"none: {1 - v:.3g} x the volume of {ref:g} m"
-        fam = c.family if c.status == "pass" else f"{c.family} (closest; not within tolerance)"
+        fam = (
+            c.family if c.status == "pass" else f"fail, closest {pct(c.claimed_error)}: {c.family}"
+        )
+        eng_col = f" {pct(c.engine_error)} |" if eng is not None else ""
         lines.append(
             f"| {c.name} | {c.file_kind} | {c.receivers} | {fam} | {params} | {pct(c.error)} "
-            f"| {pct(c.checked_error)} | {rng} | {saved} |"
+            f"| {pct(c.checked_error)} |{eng_col} {rng} | {saved} |"
         )
     notes = [(c.name, c.range["note"]) for c in choices if c.range and c.range.get("note")]
     if notes:
@@ -354,9 +447,17 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         lines += ["", f"### {eng.name} light properties", "", f"Source: {eng.source}.", ""]
         if eng.note:
             lines += [f"Note: {eng.note}.", ""]
+        lines += [
+            f"Judged through {eng.name}'s own shading (the engine witness: "
+            f"{eng.witness.source}): the engine-rendered error is the largest error of what "
+            f"{eng.name} draws with these properties at the light's receivers.",
+            "",
+        ]
         for c in choices:
             props = ", ".join(f"{k} = {_num(v)}" for k, v in c.properties.items()) or "-"
-            lines.append(f"- {c.name}: {props}")
+            verdict = "" if c.status == "pass" else f" (fail, closest {pct(c.claimed_error)})"
+            lines.append(f"- {c.name}: {props}{verdict}")
+            lines += [f"  - {n}" for n in c.engine_notes]
     if imported.notices:
         lines += ["", "Skipped:", "", *(f"- {n}" for n in imported.notices)]
     lines.append("")

@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .._errors import UnknownNameError
+from .._judge import EngineWitness, get_witness
 from ._types import SceneLight
 
 __all__ = ["ENGINES", "Engine", "get_engine"]
@@ -33,16 +34,29 @@ class Engine:
     source: str
     properties: Props
     note: str = ""
+    #: the property through which a light's size reaches the engine's diffuse term (tried
+    #: at 0 and at the light's radius by `_engine_fit`), None where none does
+    size_prop: str | None = None
+    #: the size property's unit per metre (Unreal's centimetres: 100)
+    size_unit: float = 1.0
+
+    @property
+    def witness(self) -> type[EngineWitness]:
+        """The engine's own shading (`attenfit._judge._engine_shading`), which judges its answers."""
+        return get_witness(self.name)
 
 
 def _godot(family, p, light, spot):
     # Godot 4 OmniLight3D/SpotLight3D (doc/classes/*.xml): omni_attenuation / spot_attenuation
-    # is the exponent `a` of get_omni_attenuation, omni_range / spot_range is r_max
-    key = "spot" if light.is_spot else "omni"
+    # is the exponent `a` of get_omni_attenuation, omni_range / spot_range is r_max; a disk is
+    # a SpotLight3D (spot_angle 90, spot_angle_attenuation 1: the cone 1 - rim^(1/1) is
+    # exactly the disk's cosine); light_size starts at 0 (see _engine_fit)
+    key = "spot" if spot is not None else "omni"
     out: dict[str, Any] = {f"{key}_attenuation": p["a"], f"{key}_range": p["r_max"]}
-    if light.is_spot:
-        out["spot_angle"] = light.umbra
-    out["light_size"] = light.radius  # specular and shadows only
+    if spot is not None:
+        out["spot_angle"] = spot["umbra"]
+        out["spot_angle_attenuation"] = 1.0
+    out["light_size"] = 0.0
     return out
 
 
@@ -50,7 +64,7 @@ def _threejs(family, p, light, spot):
     # three.js PointLight/SpotLight: `decay`, `distance` (the cutoff); SpotLight `angle` (rad)
     # and `penumbra` with penumbraCos = cos(angle (1 - penumbra)) (WebGLLights.js)
     out: dict[str, Any] = {"decay": p["decay"], "distance": p["cutoff"]}
-    if light.is_spot and spot is not None:
+    if spot is not None:
         out["angle"] = math.radians(spot["umbra"])
         out["penumbra"] = 1.0 - spot["penumbra"] / spot["umbra"]
     return out
@@ -61,20 +75,20 @@ def _unreal(family, p, light, spot):
     # inverse-squared mode's 1/(d^2 + 1 cm^2) is fixed (CapsuleLightIntegrate.ush DistBiasSqr)
     out: dict[str, Any] = {"AttenuationRadius": 100.0 * p["r_max"]}
     if family == "unreal_window":
-        out.update(bUseInverseSquaredFalloff=True, SourceRadius=100.0 * light.radius)
+        out.update(bUseInverseSquaredFalloff=True, SourceRadius=0.0, SourceLength=0.0)
     else:
         out.update(
             bUseInverseSquaredFalloff=False,
             LightFalloffExponent=p["p"],
             intensity_scale=p["scale"],  # the exponent mode's brightness (no 1/d^2): I x scale
         )
-    if light.is_spot and spot is not None:
+    if spot is not None:
         out.update(OuterConeAngle=spot["umbra"], InnerConeAngle=spot["penumbra"])
     return out
 
 
 def _cone(out: dict[str, Any], light: SceneLight, spot, inner: str, outer: str) -> dict[str, Any]:
-    if light.is_spot and spot is not None:
+    if spot is not None:
         out[outer] = math.radians(spot["umbra"])
         out[inner] = math.radians(spot["penumbra"])
     return out
@@ -87,7 +101,7 @@ def _filament(family, p, light, spot):
 
 def _bevy(family, p, light, spot):
     # PointLight / SpotLight `range` and `radius` (the radius shapes specular only)
-    out = {"range": p["r_max"], "radius": light.radius}
+    out: dict[str, Any] = {"range": p["r_max"], "radius": light.radius}
     return _cone(out, light, spot, "inner_angle", "outer_angle")
 
 
@@ -95,7 +109,7 @@ def _unity(family, p, light, spot):
     # Light.range (URP: distanceAttenuation.x = 1/range^2); Light.spotAngle and
     # innerSpotAngle are full angles in degrees
     out: dict[str, Any] = {"range": p["r_max"]}
-    if light.is_spot and spot is not None:
+    if spot is not None:
         out.update(spotAngle=2 * spot["umbra"], innerSpotAngle=2 * spot["penumbra"])
     return out
 
@@ -118,8 +132,10 @@ ENGINES: dict[str, Engine] = {
             "Godot 4 scene_forward_lights_inc.glsl::get_omni_attenuation; OmniLight3D.xml "
             "(omni_range default 5)",
             _godot,
-            "Godot's spot cone falloff (1 - rim^(1/A)) is not an attenfit family: the spot "
-            "angles are fitted with attenfit's two falloffs",
+            "Godot's spot cone (1 - rim^(1/spot_angle_attenuation)) is not an attenfit "
+            "falloff: spot_angle and spot_angle_attenuation are fitted through Godot's own "
+            "cone (the engine witness)",
+            "light_size",
         ),
         Engine(
             "threejs",
@@ -141,6 +157,10 @@ ENGINES: dict[str, Engine] = {
             "CapsuleLightIntegrate.ush (DistBiasSqr 1 cm^2), DynamicLightingCommon.ush::"
             "RadialAttenuation; AttenuationRadius default 1000 cm",
             _unreal,
+            "the outer cone is clamped to 89 deg + 0.001 rad (USpotLightComponent::"
+            "GetHalfConeAngle): a wider spot or a disk's hemisphere is cut there",
+            "SourceRadius",
+            100.0,
         ),
         Engine(
             "filament",
@@ -151,6 +171,8 @@ ENGINES: dict[str, Engine] = {
             "Filament light_punctual.fs::getDistanceAttenuation (max(d^2, 1e-4)); "
             "LightManager.h falloff default 1 m",
             _filament,
+            "spot cones: FLightManager::setSpotLightCone takes its cosines with fast::cos "
+            "(about 1e-3 off the cosine), which the engine witness renders",
         ),
         Engine(
             "bevy",

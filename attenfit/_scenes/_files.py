@@ -12,6 +12,7 @@ Side file keys (`SIDE_KEYS`; every one optional, an option given directly wins):
     engine = "godot"
     strict = false
     seed = 0
+    time = 1                # USD time code (default: see `_usd_attrs.UsdTime`)
     error_floor = 0.0
     [lights."Lamp"]         # per light, by name: glTF light or node name, USD prim path or name
     radius = 0.1
@@ -40,6 +41,7 @@ from ._scene import Scene
 from ._toml import SCENE_PRECISIONS
 from ._types import PointReceivers
 from ._usd import USD_SUFFIXES, read_usd
+from ._usd_attrs import check_time
 from ._usd_layers import usd_diagnostics, usd_layers
 
 __all__ = [
@@ -59,6 +61,7 @@ SIDE_KEYS = {
     "radius": "radius (m) of every light the file gives none (glTF lights, USD treatAsPoint)",
     "engine": f"one of {', '.join(ENGINES)}: only what that engine can express",
     "strict": "refuse unsupported lights (rect, dome, cylinder, directional) instead of skipping them",
+    "time": "USD time code to read the scene at; default: each value's default, or the stage's start time code for a value authored only as time samples",
     "seed": "seed of the receiver sampling; default 0",
     "error_floor": "as in a TOML scene; default 0",
     "lights": "a table per light name with `radius`",
@@ -169,6 +172,62 @@ def _positive(v: Any, where: str) -> float:
     return float(v)
 
 
+@dataclasses.dataclass(frozen=True)
+class _Options:
+    """The options of `load_mesh_scene`, checked: given directly, or from the side file."""
+
+    tolerance: float
+    precision: str
+    threshold: float | None
+    samples: int
+    radius: float | None
+    engine: Engine | None
+    strict: bool
+    seed: int
+    time: float | None
+    error_floor: float
+    per_light: dict[str, Any]
+    side_label: str
+
+
+def _options(sd: dict[str, Any], given: dict[str, Any]) -> _Options:
+    def opt(key, default):
+        value = given.get(key)
+        return value if value is not None else sd.get(key, default)
+
+    tol = opt("tolerance", DEFAULT_TOLERANCE)
+    if isinstance(tol, bool) or not isinstance(tol, int | float) or not 0 < tol <= 1:
+        raise BadValueError(f"tolerance: must be a relative error in (0, 1], got {tol!r}")
+    prec = opt("precision", "float64")
+    if prec not in SCENE_PRECISIONS:
+        raise BadValueError(
+            f"precision: must be one of {', '.join(SCENE_PRECISIONS)}, got {prec!r}"
+        )
+    thr = opt("threshold", None)
+    n = opt("samples", DEFAULT_SAMPLES)
+    if isinstance(n, bool) or not isinstance(n, int) or not 16 <= n <= 65536:
+        raise BadValueError(f"samples: must be an integer from 16 to 65536, got {n!r}")
+    r_all = opt("radius", None)
+    eng_name = opt("engine", None)
+    seed_ = opt("seed", 0)
+    if isinstance(seed_, bool) or not isinstance(seed_, int) or seed_ < 0:
+        raise BadValueError(f"seed: must be a non-negative integer, got {seed_!r}")
+    return _Options(
+        tolerance=float(tol),
+        precision=prec,
+        threshold=None if thr is None else _positive(thr, "threshold"),
+        samples=n,
+        radius=None if r_all is None else _positive(r_all, "radius"),
+        engine=get_engine(eng_name) if eng_name is not None else None,
+        strict=bool(opt("strict", False)),
+        seed=seed_,
+        time=check_time(opt("time", None)),
+        error_floor=float(sd.get("error_floor", 0.0)),
+        per_light=sd.get("lights", {}),
+        side_label=sd.get("_label", "side file"),
+    )
+
+
 def load_mesh_scene(
     path: str | os.PathLike,
     *,
@@ -181,55 +240,41 @@ def load_mesh_scene(
     engine: str | None = None,
     strict: bool | None = None,
     seed: int | None = None,
+    time: float | None = None,
     notice: Callable[[str], None] | None = None,
 ) -> ImportedScene:
     """Read a USD or glTF scene into a `Scene` (see the module docstring for the options).
 
     Every light gets up to `samples` receivers on the meshes it reaches; a light that
-    reaches none is refused (one line naming it). `notice` receives one line per skipped
-    prim (default: standard error).
+    reaches none is refused (one line naming it). `time` is the USD time code the scene is
+    read at (default: each value's default, or the stage's start time code for a value
+    authored only as time samples; `_usd_attrs.UsdTime`); a glTF scene takes none. `notice`
+    receives one line per skipped prim (default: standard error).
     """
     path = Path(path)
     label = path.name
-    sd = _side(side)
-    sl = sd.get("_label", "side file")
-
-    def opt(value, key, default):
-        return value if value is not None else sd.get(key, default)
-
-    tol = opt(tolerance, "tolerance", DEFAULT_TOLERANCE)
-    if isinstance(tol, bool) or not isinstance(tol, int | float) or not 0 < tol <= 1:
-        raise BadValueError(f"tolerance: must be a relative error in (0, 1], got {tol!r}")
-    prec = opt(precision, "precision", "float64")
-    if prec not in SCENE_PRECISIONS:
-        raise BadValueError(
-            f"precision: must be one of {', '.join(SCENE_PRECISIONS)}, got {prec!r}"
-        )
-    thr = opt(threshold, "threshold", None)
-    if thr is not None:
-        thr = _positive(thr, "threshold")
-    n = opt(samples, "samples", DEFAULT_SAMPLES)
-    if isinstance(n, bool) or not isinstance(n, int) or not 16 <= n <= 65536:
-        raise BadValueError(f"samples: must be an integer from 16 to 65536, got {n!r}")
-    r_all = opt(radius, "radius", None)
-    if r_all is not None:
-        r_all = _positive(r_all, "radius")
-    eng_name = opt(engine, "engine", None)
-    eng = get_engine(eng_name) if eng_name is not None else None
-    strict_ = bool(opt(strict, "strict", False))
-    seed_ = opt(seed, "seed", 0)
-    if isinstance(seed_, bool) or not isinstance(seed_, int) or seed_ < 0:
-        raise BadValueError(f"seed: must be a non-negative integer, got {seed_!r}")
-    floor = sd.get("error_floor", 0.0)
-    per_light = sd.get("lights", {})
+    o = _options(
+        _side(side),
+        dict(
+            tolerance=tolerance,
+            precision=precision,
+            threshold=threshold,
+            samples=samples,
+            radius=radius,
+            engine=engine,
+            strict=strict,
+            seed=seed,
+            time=time,
+        ),
+    )
     used: set[str] = set()
 
     def radius_for(name: str) -> float | None:
         for key in (name, _base(name)):  # a USD prim's path, or its name
-            if key in per_light and "radius" in per_light[key]:
+            if key in o.per_light and "radius" in o.per_light[key]:
                 used.add(key)
-                return float(per_light[key]["radius"])
-        return r_all
+                return float(o.per_light[key]["radius"])
+        return o.radius
 
     notices: list[str] = []
 
@@ -238,24 +283,36 @@ def load_mesh_scene(
         (notice or (lambda m: print(f"note: {m}", file=sys.stderr)))(msg)
 
     suffix = path.suffix.lower()
-    reader = read_usd if suffix in USD_SUFFIXES else read_gltf
     if suffix not in (*USD_SUFFIXES, *GLTF_SUFFIXES):
         raise BadValueError(f"{label}: not a USD (.usd, .usda, .usdc) or glTF (.gltf, .glb) file")
+    kw: dict[str, Any] = dict(radius_for=radius_for, strict=o.strict, notice=note)
+    if suffix in USD_SUFFIXES:
+        kw["time"] = o.time
+    elif o.time is not None:
+        raise BadValueError(f"time: {label}: a glTF scene has no time codes (time is for USD)")
     with _reading() as read:
-        lights, meshes = reader(path, label, radius_for=radius_for, strict=strict_, notice=note)
-    unknown = set(per_light) - used - {x.name for x in lights} - {_base(x.name) for x in lights}
+        lights, meshes = (read_usd if suffix in USD_SUFFIXES else read_gltf)(path, label, **kw)
+    unknown = set(o.per_light) - used - {x.name for x in lights} - {_base(x.name) for x in lights}
     if unknown:
         raise UnknownNameError(
-            f"{sl}: lights.{sorted(unknown)[0]!r}: no light of {label} has that name; "
-            f"its lights: {', '.join(x.name for x in lights) or 'none'}"
+            f"{o.side_label}: lights.{sorted(unknown)[0]!r}: no light of {label} has that "
+            f"name; its lights: {', '.join(x.name for x in lights) or 'none'}"
         )
     if not lights:
         raise BadValueError(f"{label}: no sphere, disk, spot or point light to fit")
     if not meshes:
         raise BadValueError(f"{label}: no mesh to sample receivers on")
+    receivers, drawn = _receivers(lights, meshes, o, label)
+    return _imported(path, suffix, lights, receivers, drawn, o, notices, read)
+
+
+def _receivers(lights, meshes, o: _Options, label: str) -> tuple[list, list[int]]:
+    """Each light's receivers sampled on the meshes it reaches, and the points drawn."""
     receivers, drawn = [], []
     for i, x in enumerate(lights):
-        pts, nrm, tried = sample_receivers(x.light, meshes, n, np.random.default_rng([seed_, i]))
+        pts, nrm, tried = sample_receivers(
+            x.light, meshes, o.samples, np.random.default_rng([o.seed, i])
+        )
         if len(pts) == 0:
             raise BadValueError(
                 f"{label}: light {x.name}: reaches no mesh face (none within its range, in "
@@ -263,18 +320,22 @@ def load_mesh_scene(
             )
         receivers.append(PointReceivers(points=pts, normals=nrm, light=i))
         drawn.append(tried)
-    fixed = dict(eng.fixed) if eng is not None else None
+    return receivers, drawn
+
+
+def _imported(path, suffix, lights, receivers, drawn, o: _Options, notices, read) -> ImportedScene:
+    eng = o.engine
     scene = Scene(
         lights=tuple(x.light for x in lights),
         receivers=tuple(receivers),
-        tolerance=float(tol),
-        error_floor=float(floor),
-        precision=prec,
+        tolerance=o.tolerance,
+        error_floor=o.error_floor,
+        precision=o.precision,
         families=eng.families if eng is not None else None,
-        name=label,
-        seed=seed_,
-        source=label,
-        fixed=fixed,
+        name=path.name,
+        seed=o.seed,
+        source=path.name,
+        fixed=dict(eng.fixed) if eng is not None else None,
         spot_falloffs=eng.spot_falloffs if eng is not None else None,
     )
     return ImportedScene(
@@ -285,9 +346,9 @@ def load_mesh_scene(
         refs=tuple(x.ref for x in lights),
         file_kinds=tuple(x.kind for x in lights),
         published_ranges=tuple(x.published_range for x in lights),
-        samples=n,
+        samples=o.samples,
         drawn=tuple(drawn),
-        threshold=thr,
+        threshold=o.threshold,
         engine=eng,
         notices=tuple(notices),
         inputs=(os.path.realpath(path), *sorted(read - {os.path.realpath(path)})),

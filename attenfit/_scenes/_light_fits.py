@@ -44,6 +44,9 @@ class LightData:
     radius: float
     range: float | None
     spot: tuple[float, float] | None  # (umbra, penumbra) radians
+    #: the receivers' world points and unit normals (for an engine's own shading)
+    points: np.ndarray | None = None
+    normals: np.ndarray | None = None
 
 
 def light_data(scene: Scene, truth: LightTruth) -> LightData:
@@ -70,6 +73,8 @@ def light_data(scene: Scene, truth: LightTruth) -> LightData:
         radius=light.radius,
         range=light.range,
         spot=spot,  # type: ignore[arg-type]
+        points=np.asarray(ds.points, dtype=np.float64)[j],
+        normals=np.asarray(ds.normals, dtype=np.float64)[j],
     )
 
 

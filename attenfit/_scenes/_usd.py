@@ -17,7 +17,9 @@ Lights (UsdLux, https://openusd.org/release/api/usd_lux_page_front.html):
   `cos` from `cos(angle)` to `cos(angle) + (1 - cos(angle)) * blend`): penumbra =
   `acos(cos u + (1 - cos u) softness)`, profile "threejs" (smoothstep in cos).
 * Rect, dome, cylinder, distant, geometry and portal lights are not modelled: skipped with a
-  notice, or refused with `strict`.
+  notice, or refused with `strict`. So is a light whose `inputs:shaping:focus` is not 0
+  (usdLux/schema.usda: "Implemented as an off-axis cosine power exponent. TODO: clarify
+  semantics", no formula to model) or whose `inputs:shaping:ies:file` names a file.
 
 Intensity: the radiance is `inputs:intensity * 2^inputs:exposure` (UsdLux LightAPI); with
 `inputs:normalize` it is divided by the light's area (sphere 4 pi r^2, disk pi r^2). The
@@ -26,38 +28,38 @@ direction, a disk's along its axis). Colour and colour temperature are left out:
 the truth and every curve alike (only `--threshold` compares absolute values, in the file's
 intensity units per m^2).
 
-Prims: the stage's default traversal with instance proxies (instanced meshes count), less
-invisible prims and `guide` or `proxy` purposes; a mesh is sampled as its control cage
-(Blender writes `subdivisionScheme = "none"`).
+Names and times (`_usd_attrs`): a light input authored only under its pre-2021 name
+(`radius`, `intensity`, `exposure`, `normalize`, `shaping:cone:angle`...) is read, with a
+notice; every attribute is read at `time`, or (None) at the default time, or the stage's
+start time code for a value authored only as time samples (transforms too, op by op).
 
-Transforms: the world transform of each prim (`UsdGeom.Xformable.
-ComputeLocalToWorldTransform`) times the stage's `metersPerUnit`; a light whose transform
-scales non-uniformly (its radius would not be a radius) is refused.
+Prims: the stage's default traversal with instance proxies (instanced meshes count), less
+invisible prims (`visibility` inherited: an invisible ancestor hides it) and `guide` or
+`proxy` purposes: a light so hidden is skipped with a notice; a mesh is sampled as its
+control cage (`_usd_mesh`; Blender writes `subdivisionScheme = "none"`).
+
+Transforms: the world transform of each prim (its xformOps composed as
+`UsdGeomXformable::GetLocalTransformation` composes them, `_usd_attrs.world_matrix`) times
+the stage's `metersPerUnit`; a light whose transform scales non-uniformly (its radius would
+not be a radius) is refused.
 """
 
 from __future__ import annotations
 
-import contextlib
 import math
 import os
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
-from .. import _budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
-from ._sample import Mesh, check_mesh, transform_normals
+from ._sample import Mesh
 from ._types import SceneLight
-from ._usd_layers import (
-    MAX_PRIMS,
-    USD_SUFFIXES,
-    UsdLayers,
-    pxr_error,
-    usd_diagnostics,
-    usd_layers,
-)
+from ._usd_attrs import UsdTime, check_time, light_input, prim_errors, show, world_matrix
+from ._usd_layers import MAX_PRIMS, USD_SUFFIXES, UsdLayers, pxr_error, usd_diagnostics, usd_layers
+from ._usd_mesh import check_mesh_memory, read_mesh
 
 __all__ = ["USD_SUFFIXES", "UsdLight", "read_usd"]
 
@@ -70,21 +72,9 @@ def _pxr():
     return Usd, UsdGeom, UsdLux
 
 
-def _matrix(xf) -> np.ndarray:
-    return np.array(xf, dtype=np.float64).reshape(4, 4)
-
-
 def _scales(m: np.ndarray) -> np.ndarray:
     """The lengths of the transformed unit axes (row-vector matrices: rows 0..2)."""
     return np.linalg.norm(m[:3, :3], axis=1)
-
-
-def _get(attr, default: Any) -> Any:
-    if attr is None or not attr.IsValid() or not attr.HasAuthoredValue():
-        v = attr.Get() if attr is not None and attr.IsValid() else None
-        return default if v is None else v
-    v = attr.Get()
-    return default if v is None else v
 
 
 class UsdLight:
@@ -105,14 +95,6 @@ class UsdLight:
         self.ref = name if ref is None else ref  # USD prim path; glTF light index
 
 
-#: Memory per triangle and per point of a mesh while it is read and sampled (peak above the
-#: baseline: 622 bytes per triangle for a 2,000,000-triangle grid with vertex normals,
-#: `python -m attenfit` on 2 cores), rounded up; what the meshes need together is checked
-#: against the memory budget before any is triangulated.
-BYTES_PER_TRIANGLE = 1024
-BYTES_PER_POINT = 128
-
-
 def read_usd(
     path: str | os.PathLike,
     label: str,
@@ -120,6 +102,7 @@ def read_usd(
     radius_for: Callable[[str], float | None],
     strict: bool,
     notice: Callable[[str], None],
+    time: float | None = None,
 ) -> tuple[list[UsdLight], list[Mesh]]:
     """The lights and meshes of the USD file `path` (`label` names it in messages).
 
@@ -127,20 +110,59 @@ def read_usd(
     usd-core composes only files inside the scene's folder. `radius_for(name)` gives a
     radius from the options for a light that has none (`treatAsPoint`); `notice` receives
     one line per skipped prim, and one per warning of usd-core's (kept off standard error).
+    `time`: the time code every attribute is read at; None, each attribute's default value,
+    or its value at the stage's start time code when it has only time samples
+    (`_usd_attrs.UsdTime`).
     """
+    time = check_time(time)
     with usd_diagnostics() as warned:
-        lights, meshes = _read(path, label, radius_for, strict, notice)
+        lights, meshes = _read(path, label, radius_for, strict, notice, time)
     for text in warned:
         notice(f"{label}: usd-core: {text}")
     return lights, meshes
 
 
-def _read(path, label, radius_for, strict, notice) -> tuple[list[UsdLight], list[Mesh]]:
-    Usd, UsdGeom, UsdLux = _pxr()
+def _read(path, label, radius_for, strict, notice, time) -> tuple[list[UsdLight], list[Mesh]]:
+    Usd, UsdGeom, _ = _pxr()
     layers = usd_layers(path, label)
     stage = _open_stage(layers, label, Usd)
     mpu = _meters_per_unit(stage, label, UsdGeom)
-    cache = UsdGeom.XformCache(Usd.TimeCode.Default())
+    when = UsdTime(time, float(stage.GetStartTimeCode()))
+    cache: dict[str, Any] = {}
+    found = _found(stage, label, when, notice)
+    check_mesh_memory([p for p, t in found if t == "Mesh"], layers, label, when)
+    lights: list[UsdLight] = []
+    meshes: list[Mesh] = []
+    for prim, type_name in found:
+        name = str(prim.GetPath())
+        where = f"{label}: {type_name} {name}"
+        with prim_errors(where):
+            reason = None if type_name == "Mesh" else _not_modelled(prim, type_name, when, where)
+        if reason is not None:
+            if strict:
+                raise BadValueError(f"{where}: {reason}; --strict refuses it")
+            notice(f"{where}: {reason}; skipped")
+            continue
+        with prim_errors(where):
+            if type_name in ("SphereLight", "DiskLight"):
+                m = world_matrix(prim, when, cache)
+                lights.append(_light(prim, type_name, m, mpu, where, radius_for, when, notice))
+            else:
+                with np.errstate(over="ignore", invalid="ignore"):
+                    meshes.append(read_mesh(prim, when, cache, mpu, label))
+    if when.used_start:
+        notice(
+            f"{label}: values authored only as time samples read at the start time code "
+            f"{when.start:g} (--time T reads every value at time code T)"
+        )
+    return lights, meshes
+
+
+def _found(stage, label: str, when: UsdTime, notice) -> list[tuple[Any, str]]:
+    """The light and mesh prims of the stage's default traversal (instance proxies
+    included), less invisible ones and those of purpose guide or proxy: a light so skipped
+    gets a notice (no engine draws it)."""
+    Usd, UsdGeom, _ = _pxr()
     found: list[tuple[Any, str]] = []
     for k, prim in enumerate(stage.Traverse(Usd.TraverseInstanceProxies())):
         if k >= MAX_PRIMS:
@@ -151,56 +173,63 @@ def _read(path, label, radius_for, strict, notice) -> tuple[list[UsdLight], list
         type_name = prim.GetTypeName()
         if type_name not in (*_UNSUPPORTED, "SphereLight", "DiskLight", "Mesh"):
             continue
-        with _prim_errors(f"{label}: {type_name} {prim.GetPath()}"):
-            img = UsdGeom.Imageable(prim)
-            if img and (
-                img.ComputeVisibility() == UsdGeom.Tokens.invisible
-                or img.ComputePurpose() in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy)
-            ):
-                continue
-        found.append((prim, type_name))
-    _check_mesh_memory([p for p, t in found if t == "Mesh"], layers, label, UsdGeom)
-    lights: list[UsdLight] = []
-    meshes: list[Mesh] = []
-    for prim, type_name in found:
-        name = str(prim.GetPath())
-        if type_name in _UNSUPPORTED:
-            msg = f"{label}: {type_name} {name}: not modelled (attenfit takes sphere, disk and spot lights)"
-            if strict:
-                raise BadValueError(msg + "; --strict refuses it")
-            notice(msg + "; skipped")
+        where = f"{label}: {type_name} {prim.GetPath()}"
+        with prim_errors(where):
+            hidden = _hidden(prim, when, UsdGeom)
+        if hidden is not None:
+            if type_name != "Mesh":
+                notice(f"{where}: {hidden}; skipped (it gets no answer and no range)")
             continue
-        with _prim_errors(f"{label}: {type_name} {name}"):
-            if type_name in ("SphereLight", "DiskLight"):
-                m = _matrix(cache.GetLocalToWorldTransform(prim))
-                lights.append(_light(prim, type_name, m, mpu, label, radius_for, UsdLux))
-            else:
-                with np.errstate(over="ignore", invalid="ignore"):
-                    meshes.append(_mesh(prim, cache, mpu, label, UsdGeom))
-    return lights, meshes
+        found.append((prim, type_name))
+    return found
 
 
-@contextlib.contextmanager
-def _prim_errors(where: str) -> Iterator[None]:
-    """usd-core's errors while a prim is read (an xformOp whose value has the wrong type, an
-    attribute of an unknown type...) as one line naming the prim: the file's content."""
-    from pxr import Tf
+def _hidden(prim, when: UsdTime, UsdGeom) -> str | None:
+    """Why `prim` is not drawn, or None: invisible (its `visibility` or an ancestor's
+    `invisible`: UsdGeomImageable, "visibility is inherited"... an invisible prim hides its
+    namespace descendants), or of purpose `guide` or `proxy` (drawn only on request;
+    `UsdGeomImageable::ComputePurpose`, inherited too)."""
+    p = prim
+    while p and p.IsValid() and not p.IsPseudoRoot():
+        img = UsdGeom.Imageable(p)
+        if img and when.get(img.GetVisibilityAttr()) == UsdGeom.Tokens.invisible:
+            at = "" if p == prim else f" (from {p.GetPath()})"
+            return f"invisible{at}"
+        p = p.GetParent()
+    img = UsdGeom.Imageable(prim)
+    purpose = img.ComputePurpose() if img else UsdGeom.Tokens.default_
+    if purpose in (UsdGeom.Tokens.guide, UsdGeom.Tokens.proxy):
+        return f"purpose {purpose}"
+    return None
 
-    try:
-        yield
-    except Tf.ErrorException as exc:
-        raise DataFileError(f"{where}: usd-core cannot read it ({pxr_error(exc)})") from None
 
+def _not_modelled(prim, type_name: str, when: UsdTime, where: str) -> str | None:
+    """Why attenfit cannot answer the light `prim`, or None.
 
-def _length(attr, where: str) -> int:
-    """The element count of an array attribute's value (0 when it has none)."""
-    v = attr.Get()
-    if v is None:
-        return 0
-    try:
-        return len(v)
-    except TypeError:
-        raise BadTypeError(f"{where}: {attr.GetName()} must be an array, got {_show(v)}") from None
+    Besides the light types attenfit does not model, two ShapingAPI inputs change the
+    emission in ways it does not: `inputs:shaping:focus` ("Implemented as an off-axis
+    cosine power exponent. TODO: clarify semantics", usdLux/schema.usda: no formula to
+    model) when not 0, and `inputs:shaping:ies:file` (a photometric profile in another
+    file, which attenfit never reads) when it names a file."""
+    if type_name in _UNSUPPORTED:
+        return "not modelled (attenfit takes sphere, disk and spot lights)"
+    from pxr import UsdLux
+
+    if not prim.HasAPI(UsdLux.ShapingAPI):
+        return None
+    shaping = UsdLux.ShapingAPI(prim)
+    olds: list[str] = []
+    focus = _number(light_input(prim, shaping.GetShapingFocusAttr(), olds), 0.0, where, when)
+    if focus != 0:
+        return (
+            f"shaping:focus {focus:g} is not modelled (UsdLux gives it no formula: 'an "
+            "off-axis cosine power exponent'); set it to 0 to answer the light without it"
+        )
+    ies = when.get(light_input(prim, shaping.GetShapingIesFileAttr(), olds))
+    path = getattr(ies, "path", ies)
+    if isinstance(path, str) and path:
+        return f"shaping:ies:file {path!r}: an IES profile is not modelled (attenfit reads no other file)"
+    return None
 
 
 def _open_stage(layers: UsdLayers, label: str, Usd):
@@ -234,50 +263,23 @@ def _meters_per_unit(stage, label: str, UsdGeom) -> float:
     return float(mpu)
 
 
-def _check_mesh_memory(prims, layers: UsdLayers, label: str, UsdGeom) -> None:
-    """Refuse meshes whose triangulation would exceed the memory budget, from their point
-    and face-vertex counts (read before anything is triangulated)."""
-    need, tris, biggest, big_tris = 0, 0, "", -1
-    for prim in prims:
-        mesh = UsdGeom.Mesh(prim)
-        where = f"{label}: Mesh {prim.GetPath()}"
-        with _prim_errors(where):
-            n_pts = _length(mesh.GetPointsAttr(), where)
-            n_idx = _length(mesh.GetFaceVertexIndicesAttr(), where)
-            n_faces = _length(mesh.GetFaceVertexCountsAttr(), where)
-        t = max(n_idx - 2 * n_faces, 0)  # fan triangles: sum(count - 2) over the faces
-        tris += t
-        need += BYTES_PER_TRIANGLE * t + BYTES_PER_POINT * n_pts
-        if t > big_tris:
-            biggest, big_tris = str(prim.GetPath()), t
-    _budget.check(
-        layers.memory + need,
-        f"{label}: {len(prims):,} meshes of {tris:,} triangles (the largest {biggest}, "
-        f"{big_tris:,})",
-        "a scene with fewer or coarser meshes",
-    )
-
-
-def _show(v: Any) -> str:
-    text = repr(v)
-    return text if len(text) <= 40 else text[:37] + "..."
-
-
-def _number(attr, default: float, where: str) -> float:
-    """A finite number from `attr` (its default when unauthored), refused with one line
-    naming the attribute otherwise."""
-    v = _get(attr, default)
+def _number(attr, default: float, where: str, when: UsdTime) -> float:
+    """A finite number from `attr` at `when` (its default when unauthored), refused with one
+    line naming the attribute otherwise."""
+    v = when.get(attr)
+    v = default if v is None else v
     if isinstance(v, bool) or not isinstance(v, int | float):
-        raise BadTypeError(f"{where}: {attr.GetName()} must be a number, got {_show(v)}")
+        raise BadTypeError(f"{where}: {attr.GetName()} must be a number, got {show(v)}")
     if not math.isfinite(v):
         raise BadValueError(f"{where}: {attr.GetName()} must be finite, got {v!r}")
     return float(v)
 
 
-def _flag(attr, where: str) -> bool:
-    v = _get(attr, False)
+def _flag(attr, where: str, when: UsdTime) -> bool:
+    v = when.get(attr)
+    v = False if v is None else v
     if not isinstance(v, bool):
-        raise BadTypeError(f"{where}: {attr.GetName()} must be true or false, got {_show(v)}")
+        raise BadTypeError(f"{where}: {attr.GetName()} must be true or false, got {show(v)}")
     return v
 
 
@@ -286,12 +288,12 @@ def _normal_square(r: float) -> bool:
     return r > 0 and math.isfinite(r) and sys.float_info.min <= r * r < math.inf
 
 
-def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
-    name = str(prim.GetPath())
-    where = f"{label}: {type_name} {name}"
+def _placement(m: np.ndarray, mpu: float, where: str):
+    """(scale in m per local unit, centre in m, the local -Z axis in world space) of a light's
+    world transform `m`; a transform that is not finite or not uniform is refused."""
     if not np.all(np.isfinite(m)) or not all(math.isfinite(float(x) * mpu) for x in m[3, :3]):
         raise BadValueError(
-            f"{where}: its world transform is not finite (translation {_show(m[3, :3].tolist())} "
+            f"{where}: its world transform is not finite (translation {show(m[3, :3].tolist())} "
             f"x metersPerUnit {mpu:g})"
         )
     s = _scales(m)
@@ -300,36 +302,52 @@ def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
             f"{where}: non-uniform scale {tuple(round(float(x), 6) for x in s)} "
             "on a light (its radius would not be a radius); scale its radius instead"
         )
-    scale = float(s[0]) * mpu
+    centre = tuple(float(x) * mpu for x in m[3, :3])
+    axis = np.array([0.0, 0.0, -1.0]) @ m[:3, :3]
+    axis = tuple(float(x) for x in axis / np.linalg.norm(axis))
+    return float(s[0]) * mpu, centre, axis
+
+
+def _radius(prim, type_name, scale, where, radius_for, when, olds) -> float:
+    """The light's radius in metres: `inputs:radius` x scale, or the one the options give for
+    a `treatAsPoint` sphere or a radius that is not positive."""
+    from pxr import UsdLux
+
+    name = str(prim.GetPath())
     api = UsdLux.SphereLight(prim) if type_name == "SphereLight" else UsdLux.DiskLight(prim)
-    r_local = _number(api.GetRadiusAttr(), 0.5, where)
+    r_attr = light_input(prim, api.GetRadiusAttr(), olds)
+    r_local = _number(r_attr, 0.5, where, when)
     radius = r_local * scale
-    if type_name == "SphereLight" and _flag(api.GetTreatAsPointAttr(), where):
+    point = type_name == "SphereLight" and _flag(api.GetTreatAsPointAttr(), where, when)
+    if point or not radius > 0:
         given = radius_for(name)
         if given is None:
+            why = "treatAsPoint has no radius" if point else f"radius {radius:g} m is not positive"
             raise BadValueError(
-                f"{where}: treatAsPoint has no radius; give one with "
-                f"--radius R (m) or a side file with [lights.'{name}'] radius = R"
-            )
-        radius = given
-    elif not radius > 0:
-        given = radius_for(name)
-        if given is None:
-            raise BadValueError(
-                f"{where}: radius {radius:g} m is not positive; give one "
-                f"with --radius R (m) or a side file with [lights.'{name}'] radius = R"
+                f"{where}: {why}; give one with --radius R (m) or a side file with "
+                f"[lights.'{name}'] radius = R"
             )
         radius = given
     if not _normal_square(radius):
         raise BadValueError(
-            f"{where}: radius {radius:g} m (inputs:radius {r_local:g} x scale {scale:g} m, or "
-            "the one given) is out of range: its square must be a normal float"
+            f"{where}: radius {radius:g} m ({r_attr.GetName()} {r_local:g} x scale {scale:g} m, "
+            "or the one given) is out of range: its square must be a normal float"
         )
+    return radius
+
+
+def _intensity(prim, type_name, radius, where, when, olds) -> float:
+    """The point-equivalent intensity: radiance (`intensity x 2^exposure`, over the area
+    with `normalize`) x pi r^2."""
+    from pxr import UsdLux
+
     lux = UsdLux.LightAPI(prim)
-    intensity = _number(lux.GetIntensityAttr(), 1.0, where)
-    exposure = _number(lux.GetExposureAttr(), 0.0, where)
+    i_attr = light_input(prim, lux.GetIntensityAttr(), olds)
+    e_attr = light_input(prim, lux.GetExposureAttr(), olds)
+    intensity = _number(i_attr, 1.0, where, when)
+    exposure = _number(e_attr, 0.0, where, when)
+    normalize = _flag(light_input(prim, lux.GetNormalizeAttr(), olds), where, when)
     area = (4.0 if type_name == "SphereLight" else 1.0) * math.pi * radius**2
-    normalize = _flag(lux.GetNormalizeAttr(), where)
     if not intensity > 0:
         raise BadValueError(f"{where}: intensity {intensity:g} is not positive (a dark light)")
     # radiance x pi r^2; in logarithms first: 2^exposure alone may overflow
@@ -337,39 +355,52 @@ def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
     log2 -= math.log2(area) if normalize else 0.0
     if not -1000 < log2 < 1000:
         raise BadValueError(
-            f"{where}: inputs:intensity {intensity:g} x 2^inputs:exposure ({exposure:g}) gives "
-            f"a point-equivalent intensity of 2^{log2:.5g}, outside the float range"
+            f"{where}: {i_attr.GetName()} {intensity:g} x 2^{e_attr.GetName()} ({exposure:g}) "
+            f"gives a point-equivalent intensity of 2^{log2:.5g}, outside the float range"
         )
-    if abs(exposure) < 1000:
-        intensity *= 2.0**exposure
-        intensity = intensity / area if normalize else intensity
-        intensity *= math.pi * radius**2
-    else:
-        intensity = 2.0**log2
-    centre = tuple(float(x) * mpu for x in m[3, :3])
-    axis = np.array([0.0, 0.0, -1.0]) @ m[:3, :3]
-    axis = tuple(float(x) for x in axis / np.linalg.norm(axis))
+    if abs(exposure) >= 1000:
+        return 2.0**log2
+    intensity *= 2.0**exposure
+    intensity = intensity / area if normalize else intensity
+    return intensity * math.pi * radius**2
+
+
+def _cone(prim, where, when, olds) -> tuple[float, float] | None:
+    """(umbra, penumbra) in degrees of a ShapingAPI cone, or None for no cone."""
+    from pxr import UsdLux
+
+    if not prim.HasAPI(UsdLux.ShapingAPI):
+        return None
+    shaping = UsdLux.ShapingAPI(prim)
+    a_attr = light_input(prim, shaping.GetShapingConeAngleAttr(), olds)
+    angle = _number(a_attr, 90.0, where, when)
+    softness = _number(light_input(prim, shaping.GetShapingConeSoftnessAttr(), olds), 0.0, where, when)  # fmt: skip
+    if angle >= 180:
+        return None  # no cone
+    if not 0 < angle <= 90:
+        raise BadValueError(
+            f"{where}: {a_attr.GetName()} {angle:g} deg: attenfit models cones of 0 to 90 "
+            "degrees (or 180, no cone)"
+        )
+    softness = min(max(softness, 0.0), 1.0)
+    cu = math.cos(math.radians(angle))
+    penumbra = math.degrees(math.acos(min(1.0, cu + (1 - cu) * softness)))
+    return angle, min(penumbra, angle)
+
+
+def _light(prim, type_name, m, mpu, where, radius_for, when, notice) -> UsdLight:
+    name = str(prim.GetPath())
+    olds: list[str] = []
+    scale, centre, axis = _placement(m, mpu, where)
+    radius = _radius(prim, type_name, scale, where, radius_for, when, olds)
+    intensity = _intensity(prim, type_name, radius, where, when, olds)
     kw: dict[str, Any] = {"radius": radius, "position": centre, "intensity": intensity}
-    angle = None
-    if prim.HasAPI(UsdLux.ShapingAPI):
-        shaping = UsdLux.ShapingAPI(prim)
-        angle = _number(shaping.GetShapingConeAngleAttr(), 90.0, where)
-        softness = _number(shaping.GetShapingConeSoftnessAttr(), 0.0, where)
-        if angle >= 180:
-            angle = None  # no cone
-        elif not 0 < angle <= 90:
-            raise BadValueError(
-                f"{where}: inputs:shaping:cone:angle {angle:g} deg: attenfit "
-                "models cones of 0 to 90 degrees (or 180, no cone)"
-            )
-    if angle is not None:
-        softness = min(max(softness, 0.0), 1.0)
-        cu = math.cos(math.radians(angle))
-        penumbra = math.degrees(math.acos(min(1.0, cu + (1 - cu) * softness)))
+    cone = _cone(prim, where, when, olds)
+    if cone is not None:
         kw.update(
             kind="spot",
-            umbra=angle,
-            penumbra=min(penumbra, angle),
+            umbra=cone[0],
+            penumbra=cone[1],
             direction=axis,
             shape="sphere" if type_name == "SphereLight" else "disk",
             profile="threejs",
@@ -381,120 +412,14 @@ def _light(prim, type_name, m, mpu, label, radius_for, UsdLux) -> UsdLight:
     else:
         kw.update(kind="disk", normal=axis)
         kind = type_name
+    if olds:
+        notice(
+            f"{where}: read the pre-2021 UsdLux names {', '.join(olds)} as inputs:"
+            f"{', inputs:'.join(olds)} (usd-core before 21.02 wrote them without 'inputs:')"
+        )
     light = SceneLight(**kw)
     try:
         light.emitter()  # the emitter's own checks
     except AttenfitError as exc:
         raise type(exc)(f"{where}: {exc}") from None
     return UsdLight(name, light, kind, None)
-
-
-def _array(attr, dtype, width: int, where: str) -> np.ndarray:
-    """The values of an array attribute as a (n, width) or (n,) array, or one line naming
-    the attribute when they are not numbers of that shape."""
-    v = attr.Get()
-    try:
-        arr = np.asarray(v if v is not None else [], dtype=dtype)
-        return arr.reshape(-1, width) if width > 1 else arr.reshape(-1)
-    except (TypeError, ValueError, OverflowError):
-        raise BadTypeError(
-            f"{where}: {attr.GetName()} must be an array of "
-            f"{'numbers' if width == 1 else f'{width}-vectors'}, got {_show(v)}"
-        ) from None
-
-
-def _mesh(prim, cache, mpu, label, UsdGeom) -> Mesh:
-    name = str(prim.GetPath())
-    where = f"{label}: Mesh {name}"
-    mesh = UsdGeom.Mesh(prim)
-    pts = _array(mesh.GetPointsAttr(), np.float64, 3, where)
-    counts = _array(mesh.GetFaceVertexCountsAttr(), np.int64, 1, where)
-    idx = _array(mesh.GetFaceVertexIndicesAttr(), np.int64, 1, where)
-    if len(pts) == 0 or len(counts) == 0:
-        raise BadValueError(f"{where}: degenerate (no points or no faces)")
-    if counts.sum() != len(idx) or np.any(counts < 3):
-        raise BadValueError(
-            f"{where}: faceVertexCounts (sum {int(counts.sum())}) do not match "
-            f"the {len(idx)} faceVertexIndices, or a face has fewer than 3 corners"
-        )
-    if idx.size and (idx.min() < 0 or idx.max() >= len(pts)):
-        raise BadValueError(f"{where}: a faceVertexIndex is outside the {len(pts)} points")
-    m = _matrix(cache.GetLocalToWorldTransform(prim))
-    if not np.all(np.isfinite(m)):
-        raise BadValueError(f"{where}: its world transform is not finite")
-    # fan triangulation: face f with corners c0..c(k-1) -> (c0, cj, cj+1), j = 1..k-2
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    n_tri = counts - 2
-    face = np.repeat(np.arange(len(counts)), n_tri)
-    j = np.arange(int(n_tri.sum())) - np.repeat(np.cumsum(n_tri) - n_tri, n_tri) + 1
-    fv = np.stack(
-        [starts[face], starts[face] + j, starts[face] + j + 1], axis=1
-    )  # face-varying ids
-    world = pts @ m[:3, :3] + m[3, :3]
-    corners = world[idx[fv]] * mpu
-    if not np.all(np.isfinite(corners)):
-        raise BadValueError(
-            f"{where}: points not finite in metres (points x world transform x "
-            f"metersPerUnit {mpu:g})"
-        )
-    left = mesh.GetOrientationAttr().Get() == UsdGeom.Tokens.leftHanded
-    normals = _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom, where)
-    if normals is None:
-        geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-        geo = -geo if left else geo
-        normals = np.repeat(geo[:, None, :], 3, axis=1)
-        flat = normals.reshape(-1, 3)
-        nn = np.linalg.norm(flat, axis=1, keepdims=True)
-        normals = (flat / np.where(nn > 0, nn, 1)).reshape(-1, 3, 3)
-    else:
-        det = np.linalg.det(m[:3, :3])
-        if not (math.isfinite(det) and abs(det) > 0):
-            raise BadValueError(
-                f"{where}: its world transform is singular (scales "
-                f"{', '.join(f'{float(x):g}' for x in _scales(m))}): its normals cannot follow it"
-            )
-        normals = transform_normals(m, normals.reshape(-1, 3)).reshape(-1, 3, 3)
-    out = Mesh(name, corners, normals, bool(_get(mesh.GetDoubleSidedAttr(), False)))
-    check_mesh(out, label)
-    return out
-
-
-def _normals(mesh, pts, idx, fv, face, counts, corners, left, UsdGeom, where) -> np.ndarray | None:
-    """Authored shading normals per triangle corner (local space), or None.
-
-    Their count is checked against the mesh's before they are read or flattened: an indexed
-    primvar's indices (compressed 1,000 to 1 in a crate file) could stand for billions."""
-    pv = UsdGeom.PrimvarsAPI(mesh.GetPrim()).GetPrimvar("normals")
-    expect = {
-        "vertex": len(pts),
-        "varying": len(pts),
-        "faceVarying": len(idx),
-        "uniform": len(counts),
-        "constant": 1,
-    }
-    if pv and pv.HasAuthoredValue():
-        interp = pv.GetInterpolation()
-        n = _length(pv.GetIndicesAttr() if pv.IsIndexed() else pv.GetAttr(), where)
-        if n != expect.get(interp):
-            return None  # a count that does not match: geometric normals
-        flat = pv.ComputeFlattened()
-        try:
-            values = np.asarray(flat if flat is not None else [], np.float64).reshape(-1, 3)
-        except (TypeError, ValueError, OverflowError):
-            raise BadTypeError(
-                f"{where}: primvars:normals must be an array of 3-vectors, got {_show(flat)}"
-            ) from None
-    else:
-        interp = mesh.GetNormalsInterpolation()
-        if _length(mesh.GetNormalsAttr(), where) != expect.get(interp):
-            return None
-        values = _array(mesh.GetNormalsAttr(), np.float64, 3, where)
-    if len(values) != expect.get(interp) or len(values) == 0:
-        return None
-    if interp in ("vertex", "varying"):
-        return values[idx[fv]]
-    if interp == "faceVarying":
-        return values[fv]
-    if interp == "uniform":
-        return np.repeat(values[face][:, None, :], 3, axis=1)
-    return np.broadcast_to(values[0], (len(fv), 3, 3)).copy()

@@ -1,7 +1,7 @@
 """A copy of a USD or glTF scene with each light's answer written in (`--write-back OUT`).
 
 * glTF (`OUT.gltf`): each `KHR_lights_punctual` light gets the chosen `range` (the extension's
-  own property; a light shared by several nodes gets the largest of their ranges) and the
+  own property; the published range was one candidate of the choice, not a bound) and the
   answer in `extras.attenfit` (family, parameters, errors, engine properties). Buffers and
   image files are embedded as `data:` URIs so the copy stands alone wherever it is written;
   only files inside the scene's folder are read (`_refs`): a reference outside it is refused
@@ -10,7 +10,9 @@
   resolved, so the copy stands alone), with custom attributes in the `attenfit:` namespace
   on each light prim: `attenfit:family`, `attenfit:range`, `attenfit:error`,
   `attenfit:checkedError`, `attenfit:params:NAME`, `attenfit:engine` and
-  `attenfit:<engine>:PROPERTY`.
+  `attenfit:<engine>:PROPERTY`; lengths in the stage's units (`metersPerUnit`, recorded as
+  `attenfit:metersPerUnit` and in each length's doc string), engine properties in the
+  engine's.
 
 No file the scene reads is ever replaced (every layer of a USD stage, every glTF buffer:
 `ImportedScene.inputs`); the copy is written atomically, and an existing file is replaced
@@ -27,7 +29,7 @@ from pathlib import Path
 from typing import Any
 
 from .._atomic import atomic_write, check_output_path, check_own_output
-from .._errors import BadValueError, DataFileError
+from .._errors import AttenfitError, BadValueError, DataFileError
 from ._choices import LightChoice
 from ._files import ImportedScene
 from ._usd_layers import pxr_error, usd_diagnostics, usd_layers
@@ -51,6 +53,8 @@ def _answer(c: LightChoice, engine: str | None) -> dict[str, Any]:
         "error": c.error,
         "checked_error": c.checked_error,
     }
+    if c.engine_error is not None:
+        out["engine_error"] = c.engine_error
     if c.spot is not None:
         out["spot"] = dict(c.spot)
     if c.range is not None and c.range.get("range") is not None:
@@ -111,13 +115,19 @@ def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) 
             raise BadValueError(f"{where}.attenfit: is not a list; attenfit appends its answers")
         R = c.range.get("range") if c.range is not None else None
         if R is not None and R > 0 and math.isfinite(R):
-            d["range"] = max(float(R), float(d.get("range", 0.0)))
+            d["range"] = float(R)  # the chosen range (the published one was a candidate)
         answers.append({"node_light": c.name, **_answer(c, engine)})
     return json.dumps(doc, indent=1) + "\n"
 
 
 def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -> str:
-    from pxr import Sdf, Usd
+    """The flattened stage with the answers, lengths in the stage's units: `attenfit:range`
+    and each length parameter (`Family.length_power`: a length, an area, 1/length^2...)
+    divided by metersPerUnit to that power, `attenfit:threshold` (irradiance, per m^2)
+    times metersPerUnit^2; each such attribute's doc string names the unit, and
+    `attenfit:metersPerUnit` records the factor. Engine properties stay in the engine's own
+    units (what is typed into the engine)."""
+    from pxr import Sdf, Usd, UsdGeom
 
     label = imported.path.name
     with usd_diagnostics():  # usd-core's warnings: reported when the scene was read
@@ -130,6 +140,7 @@ def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -
             ) from None
     flat.customLayerData = {**flat.customLayerData, WRITE_BACK_MARK: label}
     stage = Usd.Stage.Open(flat)
+    mpu = float(UsdGeom.GetStageMetersPerUnit(stage))
     for c in choices:
         path = str(imported.refs[c.light])
         prim = _editable(stage, path)
@@ -140,24 +151,52 @@ def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -
             )
         ans = _answer(c, engine)
 
-        def put(name: str, value: Any, prim=prim) -> None:
+        def put(name: str, value: Any, power: int = 0, prim=prim) -> None:
             if isinstance(value, bool):
                 prim.CreateAttribute(name, Sdf.ValueTypeNames.Bool, custom=True).Set(value)
             elif isinstance(value, int | float):
-                prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=True).Set(float(value))
+                attr = prim.CreateAttribute(name, Sdf.ValueTypeNames.Double, custom=True)
+                attr.Set(float(value) / mpu**power)
+                if power:
+                    attr.SetDocumentation(_unit_doc(power, mpu))
             elif isinstance(value, str):
                 prim.CreateAttribute(name, Sdf.ValueTypeNames.String, custom=True).Set(value)
 
+        put("attenfit:metersPerUnit", mpu)
+        powers = {"range": 1, "threshold": -2}
         for key in ("family", "status", "error", "checked_error", "range", "threshold", "engine"):
             if ans.get(key) is not None:
-                put(f"attenfit:{_camel(key)}", ans[key])
+                put(f"attenfit:{_camel(key)}", ans[key], powers.get(key, 0))
         for k, v in ans["params"].items():
-            put(f"attenfit:params:{k}", v)
+            put(f"attenfit:params:{k}", v, _length_power(c, k))
         for k, v in (ans.get("spot") or {}).items():
             put(f"attenfit:spot:{k}", v)
         for k, v in (ans.get("properties") or {}).items():
             put(f"attenfit:{engine}:{k}", v)
     return stage.GetRootLayer().ExportToString()
+
+
+def _length_power(c: LightChoice, param: str) -> int:
+    """The power of length in the unit of the chosen family's parameter `param` (0 when
+    the family does not say)."""
+    from .._curves import get_family
+
+    model = c.model
+    try:
+        if model is None:
+            cls = get_family(c.family) if c.family is not None else None
+        else:
+            cls = model if isinstance(model, type) else type(model)
+        return int(cls.length_power(param)) if cls is not None else 0
+    except (AttributeError, AttenfitError):
+        return 0
+
+
+def _unit_doc(power: int, mpu: float) -> str:
+    unit = {1: "stage units", 2: "stage units^2", -2: "per stage unit^2"}.get(
+        power, f"stage units^{power}"
+    )
+    return f"attenfit: in {unit} (metersPerUnit {mpu:g}: x {mpu**power:g} for metres)"
 
 
 def _editable(stage, path: str):

@@ -1,18 +1,20 @@
-"""Stage 4, shaders: each family's shader form (`_forms`, in the expression language of `_ir`)
-and its stable form (a scalar program read from its jaxpr, `_trace`), printed as GLSL, HLSL,
-WGSL, C or CUDA (`_print`, `_stable`, `_export`; an area model's shader form by `_area_export`); what they cost (`_cost`: the traced-operation
-estimate; `_compile`: real compilers) and how precise they are in float16 and float32
-(`_precision`).
+"""Stage 4, shaders: every model's shader form (`Model.shader_form`, written on its class in
+the expression language of `_ir`) and a family's stable form (a scalar program read from its
+jaxpr, `_trace`), printed as GLSL, HLSL, WGSL, C or CUDA (`_print`, `_stable`, `_export`; an
+area model's by `_area_export`); what they cost (`_cost`: the traced-operation estimate;
+`_compilers`, `_area_cost`: real compilers) and how precise they are in float16 and float32
+(`_precision`). No form is written here.
 
 Imports the curves stage (and the fitting stage's results, by duck typing) and nothing above.
 """
 
 from .._ir import ShaderForm as ShaderForm
 from .._ir import evaluate_form as evaluate_form
+from ._area_cost import area_compiled_cost as area_compiled_cost
+from ._area_cost import area_function_source as area_function_source
+from ._area_cost import evaluate_area_form as evaluate_area_form
+from ._area_export import area_export_form as area_export_form
 from ._area_export import area_source as area_source
-from ._area_exprs import area_export_form as area_export_form
-from ._area_exprs import area_function_source as area_function_source
-from ._area_forms import area_compiled_cost as area_compiled_cost
 from ._compilers import Compiled as Compiled
 from ._compilers import CompiledCost as CompiledCost
 from ._compilers import CompilerError as CompilerError
@@ -37,8 +39,7 @@ from ._export import LANGUAGES as LANGUAGES
 from ._export import export as export
 from ._export import function_source as function_source
 from ._export import scalar_params as scalar_params
-from ._forms import SHADER_FORMS as SHADER_FORMS
-from ._forms import shader_form as shader_form
+from ._model import as_model as as_model
 from ._model import load_model as load_model
 from ._precision import PRECISIONS as PRECISIONS
 from ._precision import Precision as Precision

@@ -5,9 +5,9 @@ The function is `float NAME(float d, float cos_r, float cos_e, float r, float co
 the six `AreaInputs` in their order (`attenfit._curves._area`), the light's radius `r` one of
 them (an engine reads it from the light's data), so that one function serves every light of
 the model and reads what `model(d, cos_r, cos_e, r, cos_n, g)` reads. It returns `E / I` in
-1/length^2. The body is the model's shader form (`_area_forms`: the engine's code its model
-cites, with the engine's clamps), printed by `_print`; an area model has no stable form (its
-JAX code is not traced). The model's parameters are baked in as float32 literals or read from
+1/length^2. The body is the model's shader form (`AreaModel.shader_form`: the engine's code
+its model cites, with the engine's clamps) with the radius made an input (`area_export_form`),
+printed by `_print`; an area model has no stable form (its JAX code is not traced). The model's parameters are baked in as float32 literals or read from
 uniforms (C and CUDA: extra arguments after `g`), as a family's. Every text in the header goes
 through `_text.comment_lines`.
 """
@@ -17,14 +17,14 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .._curves import AREA_INPUTS, AreaModel, Family
+from .._curves import AREA_INPUTS, AreaModel, Model
 from .._errors import BadValueError
+from .._ir import Call, Expr, Ref, ShaderForm
 from .._version import __version__
-from ._area_exprs import area_export_form
 from ._print import print_form
-from ._text import comment_lines, fit_summary, float32_literal, scalar_params
+from ._text import finish_header, float32_literal, scalar_params
 
-__all__ = ["AREA_INPUT_TEXT", "area_source"]
+__all__ = ["AREA_INPUT_TEXT", "area_export_form", "area_source"]
 
 #: Each input of an area model's function: what it is, and its unit.
 AREA_INPUT_TEXT: Mapping[str, str] = {
@@ -52,8 +52,8 @@ def area_source(
     family), `notes` more header lines (what a scene says of it)."""
     made = area_export_form(model)
     if made is None:
-        inner = getattr(model, "family", None)
-        what = f" (family {inner.name!r} has none)" if isinstance(inner, Family) else ""
+        inner = _inner(model)
+        what = f" (family {inner.name!r} has none)" if inner is not None else ""
         raise BadValueError(f"area model {model.name!r} has no shader form{what}: cannot export it")
     form, renamed = made
     values = scalar_params(model)
@@ -62,6 +62,50 @@ def area_source(
         lines = _header(model, form, renamed, values, info or {}, lang, fname, uniforms, notes)
     printed = {renamed.get(p, p): v for p, v in values.items()}
     return print_form(form, lang, fname, printed, uniforms=uniforms, header=lines)
+
+
+def area_export_form(model: AreaModel) -> tuple[ShaderForm, dict[str, str]] | None:
+    """The form `export` prints: `model`'s shader form with the light's radius an input, the
+    six inputs in `AREA_INPUTS` order (`d, cos_r, cos_e, r, cos_n, g`, as `AreaModel.__call__`
+    takes them), and the names it renamed (a parameter or temporary named like an input,
+    e.g. the family `r` of `PointLight(Yuksel())`, gets a `_param`/`_let` suffix), or None
+    when the model has no shader form."""
+    form = model.shader_form()
+    if form is None:
+        return None
+    swap: dict[tuple[str, str], Ref] = {}
+    if "radius" in form.params and "radius" not in model.param_names():  # the light's radius
+        swap[("radius", "param")] = Ref("r", "d")
+    taken = set(AREA_INPUTS) | set(form.params) | {n for n, _ in form.lets}
+    renamed: dict[str, str] = {}
+    for name, kind in [*((p, "param") for p in form.params), *((n, "let") for n, _ in form.lets)]:
+        if name in AREA_INPUTS and (name, kind) not in swap:
+            new = f"{name}_{kind}"
+            while new in taken:
+                new += "_"
+            taken.add(new)
+            renamed[name] = new
+            swap[(name, kind)] = Ref(new, kind)
+
+    def sub(e: Expr) -> Expr:
+        if isinstance(e, Ref):
+            return swap.get((e.name, e.kind), e)
+        if isinstance(e, Call):
+            return Call(e.op, tuple(sub(a) for a in e.args))
+        return e
+
+    kept = [p for p in form.params if swap.get((p, "param")) is None or p in renamed]
+    params = tuple(renamed.get(p, p) for p in kept)
+    lets = tuple((renamed.get(n, n), sub(e)) for n, e in form.lets)
+    out = ShaderForm(form.family, params, lets, sub(form.result), form.source, form.engine,
+                     form.note, AREA_INPUTS)  # fmt: skip
+    return out, renamed
+
+
+def _inner(model: Model) -> Model | None:
+    """The model whose parameters `model` reads (`PointLight`'s family: `params_field`)."""
+    field = type(model).params_field
+    return None if field is None else getattr(model, field)
 
 
 def _header(
@@ -81,14 +125,14 @@ def _header(
         f"{p} = {float32_literal(v)}" + (f" (written {renamed[p]})" if p in renamed else "")
         for p, v in values.items()
     )
-    inner = getattr(model, "family", None)
+    inner = _inner(model)
     lines = [
         f"{fname}({', '.join(AREA_INPUTS)}): E / I, the irradiance of an area light over its "
         "intensity, at a receiver.",
         f"model   : {model.name} (an area model; lights: {model.light})",
         f"formula : {model.formula}",
     ]
-    if isinstance(inner, Family):
+    if inner is not None:
         lines.append(f"          f = {inner.name}: {inner.formula} (source: {inner.source})")
     lines += [
         f"source  : {model.source}",
@@ -104,16 +148,8 @@ def _header(
         "output  : E / I in 1/length^2 (I: the light's point-equivalent intensity, "
         "I = pi r^2 L; docs/architecture.md, Conventions)"
     )
-    if info:
-        fit = fit_summary(dict(info))
-        lines += [f"fit     : {fit[0]}", *(f"          {line}" for line in fit[1:])]
-    lines += list(notes)
-    lines.append(
+    generated = (
         f"Generated by attenfit {__version__} from the model's shader form (an area model has "
-        "no stable form)."
+        "no stable form).",
     )
-    if lang == "c":
-        lines.append("Needs <math.h> (link -lm); compile without -ffast-math.")
-    if lang == "cuda":
-        lines.append("A CUDA __device__ function (nvcc or NVRTC).")
-    return comment_lines(lines)
+    return finish_header(lines, info, notes, generated, lang)

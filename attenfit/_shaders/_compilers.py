@@ -362,7 +362,8 @@ def cost_method() -> str:
 
 @dataclasses.dataclass(frozen=True)
 class CompiledCost:
-    """What one family costs as compiled, in the form that would ship (`form`).
+    """What one model costs as compiled, in the form that would ship (`form`; an area
+    model's `area_compiled_cost`: its shader form, SPIR-V only).
 
     `spirv` and `sass` are the compilers' counts (None where that compiler is not
     installed); `estimate` is the traced-operation model's weighted count of the same form;
@@ -428,8 +429,16 @@ def compiled_cost(family: Any, *, form: str = "shader", sass: bool = True) -> Co
 
 
 #: Parameter values by constraint for `structural_cost`: none a compiler folds away (0, 1, an
-#: integer exponent), so that a family costs the same whatever values it is fitted to.
+#: integer exponent), so that a model costs the same whatever values it is fitted to.
 _GENERIC = {"positive": 0.7313, "nonnegative": 0.5311, "unit": 0.3713, "real": 0.4217}
+
+
+def generic_model(model: Any) -> Any:
+    """`model` with its scalar parameters at the generic values of their constraints."""
+    generic = {
+        p: _GENERIC[model.constraint(p)] for p, v in model.params().items() if np.ndim(v) == 0
+    }
+    return model.replace(**generic) if generic else model
 
 
 def structural_cost(family: Any, *, form: str = "shader", sass: bool = False) -> CompiledCost:
@@ -440,41 +449,12 @@ def structural_cost(family: Any, *, form: str = "shader", sass: bool = False) ->
     the candidates of a scene. Compiled once per family and cached, since its source text
     does not change with the fitted values.
     """
-    generic = {
-        p: _GENERIC[family.constraint(p)] for p, v in family.params().items() if np.ndim(v) == 0
-    }
-    return compiled_cost(family.replace(**generic), form=form, sass=sass)
+    return compiled_cost(generic_model(family), form=form, sass=sass)
 
 
 def _estimate(family: Any, form: str) -> float:
     """The traced-operation model (`SHADER_WEIGHTS`) on the form."""
-    from .._ir import Call
-    from ._cost import SHADER_WEIGHTS, shader_cost
-    from ._forms import shader_form
+    from ._cost import form_cost, shader_cost
 
-    sf = shader_form(family) if form == "shader" else None
-    if sf is None:
-        return shader_cost(family)
-    names = {"saturate": "clamp", "select": "select_n"}
-    uniform = sf.uniform_lets()
-    total = 0.0
-
-    def walk(e: Any) -> None:
-        nonlocal total
-        if isinstance(e, Call):
-            if _reads_d(e, uniform):
-                total += SHADER_WEIGHTS.get(names.get(e.op, e.op), 1)
-            for a in e.args:
-                walk(a)
-
-    for name, expr in sf.lets:
-        if name not in uniform:
-            walk(expr)
-    walk(sf.result)
-    return total
-
-
-def _reads_d(e: Any, uniform: set[str]) -> bool:
-    from .._ir import reads
-
-    return reads(e, {"d"}, uniform)
+    sf = family.shader_form() if form == "shader" else None
+    return shader_cost(family) if sf is None else form_cost(sf)

@@ -49,8 +49,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._curves import Family, float32_family, get_family, list_families
-from .._errors import BadTypeError, BadValueError
+from .._curves import Family, float32_family, list_families
+from .._errors import BadValueError
+from .._ir import Call, Expr, ShaderForm, reads
+from ._model import as_family
 from ._program import Program, Var
 from ._trace import trace
 
@@ -159,12 +161,24 @@ def _fma_pairs(prog: Program, per_eval: set[int]) -> int:
     return pairs
 
 
+def form_cost(form: ShaderForm) -> float:
+    """The weighted cost of a shader form (`SHADER_WEIGHTS`): its operations that read an
+    input (those on the parameters alone are folded or hoisted), as `shader_cost` counts a
+    traced program (no fusing)."""
+    uniform = form.uniform_lets()
+    names = {"saturate": "clamp", "select": "select_n"}
+
+    def walk(e: Expr) -> float:
+        if not isinstance(e, Call):
+            return 0.0
+        here = SHADER_WEIGHTS.get(names.get(e.op, e.op), 1) if reads(e, {"d"}, uniform) else 0
+        return here + sum(walk(a) for a in e.args)
+
+    return float(sum(walk(e) for n, e in form.lets if n not in uniform) + walk(form.result))
+
+
 def _as_program(family: Family | type[Family] | str | Program) -> Program:
-    if isinstance(family, Program):
-        return family
-    if isinstance(family, str):
-        family = get_family(family)
-    return trace(family)
+    return family if isinstance(family, Program) else trace(family)
 
 
 def count_ops(family: Family | type[Family] | str | Program) -> dict[str, int]:
@@ -200,20 +214,6 @@ def shader_cost(family: Family | type[Family] | str | Program) -> float:
 
 
 # ----------------------------------------------------------------------------- throughput
-def _reference() -> Family:
-    return get_family("inverse_square")()
-
-
-def _resolve(family: Family | type[Family] | str) -> Family:
-    if isinstance(family, str):
-        return get_family(family)()
-    if isinstance(family, type) and issubclass(family, Family):
-        return family()
-    if isinstance(family, Family):
-        return family
-    raise BadTypeError(f"expected a Family, a Family class or a family name, got {family!r}")
-
-
 def measure_throughput(
     families: Iterable[Family | type[Family] | str],
     *,
@@ -231,7 +231,7 @@ def measure_throughput(
     calls as last `min_time` seconds (so that another process's burst does not count), and
     the median over `repeats` is reported. Names must be distinct.
     """
-    fams = [_resolve(f) for f in families]
+    fams = [as_family(f) for f in families]
     names = [f.name for f in fams]
     if len(set(names)) != len(names):
         raise BadValueError(f"measure_throughput needs distinct family names, got {names}")
@@ -284,11 +284,11 @@ def cost_table(
     which takes milliseconds; with `measure=True` `inverse_square` is timed in the same run
     as the reference of `ratio_to_inverse_square`.
     """
-    fams = [_resolve(f) for f in (list_families() if families is None else families)]
+    fams = [as_family(f) for f in (list_families() if families is None else families)]
     costs: dict[str, Cost] = {}
     timings: dict[str, tuple[float, float]] = {}
     if measure:
-        ref = _reference()
+        ref = as_family("inverse_square")
         timed = fams if any(f.name == ref.name for f in fams) else [ref, *fams]
         timings = measure_throughput(timed, n=n, repeats=repeats)
     for fam in fams:
@@ -316,7 +316,7 @@ def family_cost(
     repeats: int = 11,
 ) -> Cost:
     """The `Cost` of one family (timed against `inverse_square` in the same run if `measure`)."""
-    fam = _resolve(family)
+    fam = as_family(family)
     return cost_table([fam], measure=measure, n=n, repeats=repeats)[fam.name]
 
 

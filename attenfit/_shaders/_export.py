@@ -2,10 +2,10 @@
 
 A family's function is `float NAME(float d)`, in one of two forms (`FORMS`):
 
-* **shader** (the default): the family's shader form (`_forms`), the expression an engine
-  ships or a person would write, printed with named temporaries (`_print`). A family with
-  no shader form (a user's own, `spline`) falls back to the stable form, and its header
-  says so.
+* **shader** (the default): the family's shader form (`Model.shader_form`, written on its
+  class), the expression an engine ships or a person would write, printed with named
+  temporaries (`_print`). A family with no shader form (`spline`, a user's own that says
+  `shader_form = no_shader_form`) falls back to the stable form, and its header says so.
 * **stable**: the expression the JAX code evaluates, read from its jaxpr (`_trace`) and
   printed one statement per operation (`_stable`): the guards at 0, at the range and
   against overflow included.
@@ -23,18 +23,15 @@ and their units.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Mapping, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .._curves import AreaModel, Family, get_area_model, list_area_models, list_families
+from .._curves import Model
 from .._errors import BadValueError, UnknownNameError
 from .._version import __version__
 from ._area_export import area_source
-from ._forms import shader_form
 from ._model import load_model, param_value
 from ._print import print_form
 from ._program import UnsupportedPrimitiveError as UnsupportedPrimitiveError
@@ -42,8 +39,7 @@ from ._stable import print_stable
 from ._text import (
     LANGUAGES,
     check_function_name,
-    comment_lines,
-    fit_summary,
+    finish_header,
     float32_literal,
     float32_param,
     scalar_params,
@@ -103,7 +99,7 @@ def export(
         raise UnknownNameError(f"unknown language {lang!r}; choose one of {list(LANGUAGES)}")
     if form not in FORMS:
         raise UnknownNameError(f"unknown form {form!r}; choose one of {list(FORMS)}")
-    fam, info = _resolve(model, family)
+    fam, info = load_model(model, family=family)
     if params:
         fam = fam.replace(**{k: param_value(v, k, "params") for k, v in params.items()})
         if info:
@@ -112,51 +108,8 @@ def export(
     return function_source(fam, lang, fname, form=form, uniforms=uniforms, info=info)[0]
 
 
-def _resolve(source: Any, family: str | None) -> tuple[Family | AreaModel, dict[str, Any]]:
-    """`load_model`, and area models: an instance or class, a registered name, a fit of one;
-    a name neither registry knows is refused naming both registries' names."""
-    area: AreaModel | None = None
-    info: dict[str, Any] = {}
-    if isinstance(source, AreaModel):
-        area = source
-    elif isinstance(source, type) and issubclass(source, AreaModel):
-        area = source()
-    elif isinstance(source, str) and not _path_like(source):
-        if source in list_area_models() and source not in list_families():
-            area = get_area_model(source)()
-        elif source not in list_families():
-            raise UnknownNameError(
-                f"unknown family {source!r} (nor area model); known families: "
-                f"{', '.join(list_families())}; area models: {', '.join(list_area_models())}"
-            )
-    elif isinstance(getattr(source, "model", None), AreaModel):  # a FitResult
-        area = source.model
-        info = {k: _plain(getattr(source, k)) for k in ("metrics", "loss", "converged")
-                if getattr(source, k, None) is not None}  # fmt: skip
-    if area is None:
-        return load_model(source, family=family)
-    if family is not None:
-        raise BadValueError(
-            f"family={family!r} (--family) picks one fit of a fit file; {area.name!r} is an "
-            "area model, not a fit file"
-        )
-    return area, info
-
-
-def _path_like(text: str) -> bool:
-    """Whether `load_model` reads `text` as a fit file's path (as it decides)."""
-    return text.endswith(".json") or os.sep in text or Path(text).exists()
-
-
-def _plain(value: Any) -> Any:
-    if isinstance(value, Mapping):
-        return {str(k): _plain(v) for k, v in value.items()}
-    arr = np.asarray(value)
-    return arr.item() if arr.dtype.kind in "fiub" and arr.ndim == 0 else value
-
-
 def function_source(
-    family: Family | AreaModel,
+    family: Model,
     lang: str,
     fname: str,
     *,
@@ -168,9 +121,10 @@ def function_source(
 ) -> tuple[str, str]:
     """(source text, the form printed): "shader", or "stable" where the family has none.
 
-    `family` may be an `AreaModel` (`_area_export.area_source`): its shader form, the only
-    one it has. `notes` are more header lines (what a scene says of the function)."""
-    if isinstance(family, AreaModel):
+    `family` may be an area model (a model of several `inputs`, `_area_export.area_source`):
+    its shader form, the only one it has. `notes` are more header lines (what a scene says
+    of the function)."""
+    if family.inputs:
         if form != "shader":
             raise BadValueError(
                 f"area model {family.name!r} has no stable form (form {form!r}, --form "
@@ -180,7 +134,7 @@ def function_source(
             family, lang, fname, uniforms=uniforms, info=info, header=header, notes=notes
         )
         return text, "shader"
-    sf = shader_form(family) if form == "shader" else None
+    sf = family.shader_form() if form == "shader" else None
     lines: list[str] = []
     if sf is not None:
         values = scalar_params(family)
@@ -201,7 +155,7 @@ def function_source(
 
 
 def _header(
-    family: Family,
+    family: Model,
     info: Mapping[str, Any],
     lang: str,
     fname: str,
@@ -235,22 +189,15 @@ def _header(
     else:
         lines.append("form    : stable (attenfit's guarded form, read from the JAX code)")
     lines.append(f"params  : {shown} ({where})" if shown else "params  : none")
-    if info:
-        fit = fit_summary(dict(info))
-        lines += [f"fit     : {fit[0]}", *(f"          {line}" for line in fit[1:])]
-    lines += list(notes)
-    if sf is not None:
-        lines.append(
+    generated = (
+        [
             f"Generated by attenfit {__version__}; `attenfit export --form stable` gives the "
             "guarded form."
-        )
-    else:
-        lines += [
+        ]
+        if sf is not None
+        else [
             f"Generated by attenfit {__version__} from the jaxpr of the JAX implementation",
             f"({n_ops} scalar operations, float32): the same numerically stable form.",
         ]
-    if lang == "c":
-        lines.append("Needs <math.h> (link -lm); compile without -ffast-math.")
-    if lang == "cuda":
-        lines.append("A CUDA __device__ function (nvcc or NVRTC).")
-    return comment_lines(lines)
+    )
+    return finish_header(lines, info, notes, generated, lang)

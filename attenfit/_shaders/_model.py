@@ -1,5 +1,6 @@
-"""What `export` and the compiled costs accept as a model: a family, a family name, a fit
-result, its dict, or a fit file (`load_model`)."""
+"""What `export`, the costs and the traces accept as a model: a model (a family or an area
+model, instance or class), a registered name, a fit result, its dict, or a fit file
+(`load_model`)."""
 
 from __future__ import annotations
 
@@ -10,55 +11,103 @@ from typing import Any
 
 import numpy as np
 
-from .._curves import Family, get_family
+from .._curves import Model, get_area_model, get_family, list_area_models, list_families
 from .._errors import BadTypeError, BadValueError, DataFileError, UnknownNameError
 from .._input import LIMITS, load_json, read_text
 
-__all__ = ["load_model", "param_value"]
+__all__ = ["as_family", "as_model", "load_model", "model_class", "param_value"]
+
+#: What a fit records beside its model (its error), quoted in an export's header.
+_FIT_KEYS = ("metrics", "loss", "converged")
 
 
-def load_model(source: Any, *, family: str | None = None) -> tuple[Family, dict[str, Any]]:
-    """Resolve what `export` accepts into `(family instance, fit information)`.
+def model_class(name: str) -> type[Model]:
+    """The model class registered as `name`: a family, else an area model."""
+    if not isinstance(name, str):
+        raise BadTypeError(f"model name must be a string, got {name!r}")
+    if name in list_families():
+        return get_family(name)
+    if name in list_area_models():
+        return get_area_model(name)
+    raise UnknownNameError(
+        f"unknown family {name!r} (nor area model); known families: "
+        f"{', '.join(list_families())}; area models: {', '.join(list_area_models())}"
+    )
 
-    `source` is a `Family` instance or class, a registered family name, a `FitResult`
-    (anything with a `model` that is a `Family`), a dict as written by
-    `FitResult.to_dict()` (a family name under "family" and parameter values under
-    "params"), a list of such dicts, or the path of such a JSON file (`attenfit fit --out
-    DIR` writes `DIR/fits.json`; the folder is accepted too). When the source holds several
-    fits, `family` names the one to use. The fit information is empty except for a fit,
+
+def as_model(source: Any) -> Model:
+    """A model instance from a model, a model class or a registered name."""
+    if isinstance(source, Model):
+        return source
+    if isinstance(source, type) and issubclass(source, Model):
+        return source()
+    if isinstance(source, str):
+        return model_class(source)()
+    raise BadTypeError(
+        f"expected a family or area model (instance, class or name), got {type(source).__name__}"
+    )
+
+
+def as_family(source: Any) -> Model:
+    """`as_model`, refused (`BadTypeError`) unless the model reads the distance alone (a
+    family: what is traced, counted and timed; an area model has its shader form only)."""
+    model = as_model(source)
+    if model.inputs:
+        raise BadTypeError(
+            f"{model.kind} {model.name!r} reads {model.inputs} inputs, not the distance "
+            "alone: only a family is traced, counted and timed (its shader form is costed "
+            "by area_compiled_cost)"
+        )
+    return model
+
+
+def load_model(source: Any, *, family: str | None = None) -> tuple[Model, dict[str, Any]]:
+    """Resolve what `export` accepts into `(model instance, fit information)`.
+
+    `source` is a model (a `Family` or an `AreaModel`, instance or class), a registered
+    name, a `FitResult` (anything with a `model`), a dict as written by `FitResult.to_dict()`
+    (the model's name under "family" and parameter values under "params"), a list of such
+    dicts, or the path of such a JSON file (`attenfit fit --out DIR` writes `DIR/fits.json`;
+    the folder is accepted too). When the source holds several fits, `family` names the one
+    to use (refused for any other source). The fit information is empty except for a fit,
     where it holds what the fit reported (metrics, loss, converged, configuration, file).
     """
-    if isinstance(source, Family):
-        return source, {}
-    if isinstance(source, type) and issubclass(source, Family):
-        return source(), {}
-    if isinstance(source, str | os.PathLike) and (
-        str(source).endswith(".json") or os.sep in str(source) or Path(source).exists()
-    ):
+    if isinstance(source, str | os.PathLike) and _path_like(str(source)):
         path = Path(source)
         if path.is_dir():
             path = path / "fits.json"
         what = f"fit file {str(path)!r}"
         data = load_json(read_text(path, what, LIMITS["fits"]), what)
-        model, info = _from_dict(data, where=f"fit file {str(path)!r}", family=family)
+        model, info = _from_dict(data, where=what, family=family)
         info["file"] = str(path)
         return model, info
-    if isinstance(source, str):
-        return get_family(source)(), {}
     if isinstance(source, Mapping | list):
         return _from_dict(source, where="fit dict", family=family)
-    model = getattr(source, "model", None)
-    if isinstance(model, Family):
-        info = {
-            key: _plain(getattr(source, key))
-            for key in ("metrics", "loss", "converged")
-            if getattr(source, key, None) is not None
-        }
-        return model, info
-    raise BadTypeError(
-        "export takes a Family, a family name, a FitResult, a FitResult.to_dict() dict or a "
-        f"FIT.json path, got {type(source).__name__}"
-    )
+    fitted = getattr(source, "model", None)
+    if isinstance(fitted, Model):  # a FitResult
+        model = fitted
+        info = {k: _plain(getattr(source, k)) for k in _FIT_KEYS if getattr(source, k, None) is not None}  # fmt: skip
+    else:
+        try:
+            model, info = as_model(source), {}
+        except BadTypeError:
+            raise BadTypeError(
+                "export takes a Family or an AreaModel (instance or class), a model's name, a "
+                "FitResult, a FitResult.to_dict() dict or a FIT.json path, got "
+                f"{type(source).__name__}"
+            ) from None
+    if family is not None:
+        article = "an" if model.kind[0] in "aeiou" else "a"
+        raise BadValueError(
+            f"family={family!r} (--family) picks one fit of a fit file; {model.name!r} is "
+            f"{article} {model.kind}, not a fit file"
+        )
+    return model, info
+
+
+def _path_like(text: str) -> bool:
+    """Whether `text` names a fit file rather than a model."""
+    return text.endswith(".json") or os.sep in text or Path(text).exists()
 
 
 def _plain(value: Any) -> Any:
@@ -72,9 +121,7 @@ def _plain(value: Any) -> Any:
     return value
 
 
-def _from_dict(
-    data: Any, *, where: str, family: str | None = None
-) -> tuple[Family, dict[str, Any]]:
+def _from_dict(data: Any, *, where: str, family: str | None = None) -> tuple[Model, dict[str, Any]]:
     if isinstance(data, Mapping) and isinstance(data.get("fits"), list):
         data = data["fits"]
     if isinstance(data, list):
@@ -97,24 +144,21 @@ def _from_dict(
         name = name.get("name")
     if not isinstance(name, str):
         raise DataFileError(f"{where} names no family (expected a string under 'family')")
-    try:
-        cls = get_family(name)
-    except UnknownNameError as exc:
-        raise DataFileError(f"{where}: {exc}") from None
     params = data.get("params", {})
     if not isinstance(params, Mapping):
         raise DataFileError(f"{where}: 'params' must be an object of parameter values")
     try:
-        model = cls().replace(**{k: param_value(v, k, where) for k, v in params.items()})
+        model = model_class(name)().replace(
+            **{k: param_value(v, k, where) for k, v in params.items()}
+        )
     except UnknownNameError as exc:
         raise DataFileError(f"{where}: {exc}") from None
-    info = {
-        k: _plain(data[k]) for k in ("metrics", "loss", "converged", "configuration") if k in data
-    }
+    info = {k: _plain(data[k]) for k in (*_FIT_KEYS, "configuration") if k in data}
     return model, info
 
 
 def param_value(value: Any, name: str, where: str) -> Any:
+    """A parameter value read from outside (a fit file, `--param`): a finite number or array."""
     try:
         arr = np.asarray(value)
     except ValueError:  # a ragged list

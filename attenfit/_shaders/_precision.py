@@ -25,7 +25,6 @@ from jaxtyping import Float
 from .._curves import Family
 from .._ir import evaluate_form
 from ._export import scalar_params
-from ._forms import shader_form
 
 __all__ = ["PRECISIONS", "Precision", "precision", "shade_in"]
 
@@ -90,7 +89,7 @@ def shade_in(
     family: Family, d: Float[np.ndarray, " n"], dtype: str
 ) -> Float[np.ndarray, " n"] | None:
     """The shader form of `family` at `d`, evaluated in `dtype` (None: it has no form)."""
-    sf = shader_form(family)
+    sf = family.shader_form()
     if sf is None:
         return None
     return evaluate_form(sf, np.asarray(d, np.float64), scalar_params(family), dtype)

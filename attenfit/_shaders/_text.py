@@ -25,6 +25,7 @@ __all__ = [
     "LANGUAGES",
     "comment_lines",
     "comment_safe",
+    "finish_header",
     "fit_summary",
     "float32_literal",
     "float32_param",
@@ -90,15 +91,12 @@ _F32 = np.finfo(np.float32)
 def scalar_params(model: Any) -> dict[str, float]:
     """A model's parameters (a family's or an area model's) as finite float32 scalars: one
     problem, not a batch (`BadValueError` for a batch or a value float32 cannot hold)."""
-    from .._curves import AreaModel
-
-    noun = "area model" if isinstance(model, AreaModel) else "family"
     out = {}
     for p, v in model.params().items():
         value = np.asarray(v, np.float64)
         if value.ndim:
             raise BadValueError(
-                f"{noun} {model.name!r} has parameter {p} of shape {value.shape}; export "
+                f"{model.kind} {model.name!r} has parameter {p} of shape {value.shape}; export "
                 "and cost take one set of parameters, not a batch: pick one problem"
             )
         out[p] = float32_param(model.name, p, float(value))
@@ -148,6 +146,27 @@ def fit_summary(info: Mapping[str, Any]) -> list[str]:
     if "note" in info:
         lines.append(info["note"])
     return lines
+
+
+def finish_header(
+    lines: Sequence[str],
+    info: Mapping[str, Any],
+    notes: Sequence[str],
+    generated: Sequence[str],
+    lang: str,
+) -> list[str]:
+    """A function's header comment: `lines`, a fit's error (`info`), `notes`, how it was
+    `generated`, and what `lang` needs, each line through `comment_lines`."""
+    out = list(lines)
+    if info:
+        fit = fit_summary(dict(info))
+        out += [f"fit     : {fit[0]}", *(f"          {line}" for line in fit[1:])]
+    out += [*notes, *generated]
+    if lang == "c":
+        out.append("Needs <math.h> (link -lm); compile without -ffast-math.")
+    if lang == "cuda":
+        out.append("A CUDA __device__ function (nvcc or NVRTC).")
+    return comment_lines(out)
 
 
 # ----------------------------------------------------------------------------- identifiers

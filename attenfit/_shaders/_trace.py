@@ -23,6 +23,7 @@ import numpy as np
 
 from .._curves import Family, float32_family
 from .._errors import BadTypeError, BadValueError
+from ._model import as_family
 from ._program import Atom, Const, Op, Program, UnsupportedPrimitiveError, Var
 
 __all__ = ["PRIMITIVES", "trace"]
@@ -259,8 +260,6 @@ def _cond(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
 
 def _translate(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]:
     name = eqn.primitive.name
-    params = eqn.params
-    out_avals = [v.aval for v in eqn.outvars]
     sub = _sub_jaxpr(eqn)
     if sub is not None:
         jaxpr, consts = sub
@@ -272,7 +271,13 @@ def _translate(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]
         return _scan(b, eqn, ins)
     if name == "cond":
         return _cond(b, eqn, ins)
-    # static array plumbing: numpy on object arrays
+    moved = _plumbing(b, eqn, ins)
+    return [moved if moved is not None else _elementwise(b, eqn, ins)]
+
+
+def _plumbing(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> np.ndarray | None:
+    """Static array plumbing (numpy on object arrays), or None for another primitive."""
+    name, params = eqn.primitive.name, eqn.params
     if name == "slice":
         strides = params.get("strides") or (1,) * ins[0].ndim
         sl = tuple(
@@ -281,39 +286,44 @@ def _translate(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]
                 params["start_indices"], params["limit_indices"], strides, strict=True
             )
         )
-        return [ins[0][sl]]
+        return ins[0][sl]
     if name == "squeeze":
-        return [np.squeeze(ins[0], axis=tuple(params["dimensions"]))]
+        return np.squeeze(ins[0], axis=tuple(params["dimensions"]))
     if name == "reshape":
-        return [ins[0].reshape(params["new_sizes"])]
+        return ins[0].reshape(params["new_sizes"])
     if name == "expand_dims":
-        return [np.expand_dims(ins[0], tuple(params["dimensions"]))]
+        return np.expand_dims(ins[0], tuple(params["dimensions"]))
     if name == "broadcast_in_dim":
         shape, dims = tuple(params["shape"]), tuple(params["broadcast_dimensions"])
         src = ins[0]
         view_shape = [1] * len(shape)
         for i, dim in enumerate(dims):
             view_shape[dim] = src.shape[i]
-        return [np.broadcast_to(src.reshape(view_shape), shape).copy()]
+        return np.broadcast_to(src.reshape(view_shape), shape).copy()
     if name == "concatenate":
-        return [np.concatenate(ins, axis=params["dimension"])]
+        return np.concatenate(ins, axis=params["dimension"])
     if name == "transpose":
-        return [np.transpose(ins[0], params["permutation"])]
+        return np.transpose(ins[0], params["permutation"])
     if name == "rev":
-        return [np.flip(ins[0], axis=tuple(params["dimensions"]))]
+        return np.flip(ins[0], axis=tuple(params["dimensions"]))
     if name == "iota":
-        aval = out_avals[0]
+        aval = eqn.outvars[0].aval
         idx = np.indices(aval.shape)[params["dimension"]]
-        return [_const_array(b, idx.astype(np.dtype(aval.dtype)))]
+        return _const_array(b, idx.astype(np.dtype(aval.dtype)))
     if name in ("dynamic_slice", "gather", "dynamic_update_slice", "scatter"):
-        return [_static_index(b, eqn, ins)]
+        return _static_index(b, eqn, ins)
     if name in ("reduce_sum", "reduce_max", "reduce_min", "reduce_prod", "reduce_and", "reduce_or"):
-        return [_reduce(b, name, ins[0], tuple(params["axes"]))]
-    # element-wise arithmetic
+        return _reduce(b, name, ins[0], tuple(params["axes"]))
+    return None
+
+
+def _elementwise(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> np.ndarray:
+    """Element-wise arithmetic, one scalar operation per element."""
+    name, params = eqn.primitive.name, eqn.params
     if name == "integer_pow":
-        return [_map(lambda x: b.integer_pow(x, int(params["y"])), ins[0])]
+        return _map(lambda x: b.integer_pow(x, int(params["y"])), ins[0])
     if name == "square":
-        return [_map(lambda x: b.mul(x, x), ins[0])]
+        return _map(lambda x: b.mul(x, x), ins[0])
     if name == "convert_element_type":
         to = _dtype_code(params["new_dtype"])
 
@@ -325,19 +335,20 @@ def _translate(b: _Builder, eqn: Any, ins: list[np.ndarray]) -> list[np.ndarray]
                 return Const(_plain_value(value, to, b.float64), to)
             return b.emit("convert", [x], to)
 
-        return [_map(convert, ins[0])]
+        return _map(convert, ins[0])
     prim = _RENAME.get(name, name)
     if prim in PRIMITIVES:
         arity = PRIMITIVES[prim]
         if arity is not None and len(ins) != arity:
             raise UnsupportedPrimitiveError(f"primitive {name!r} with {len(ins)} arguments")
-        out_code = _dtype_code(out_avals[0].dtype)
-        shape = tuple(out_avals[0].shape)
+        aval = eqn.outvars[0].aval
+        out_code = _dtype_code(aval.dtype)
+        shape = tuple(aval.shape)
         arrays = [np.broadcast_to(x, shape) for x in ins]
         out = np.empty(shape, dtype=object)
         for idx in np.ndindex(shape):
             out[idx] = b.emit(prim, [a[idx] for a in arrays], out_code)
-        return [out]
+        return out
     raise UnsupportedPrimitiveError(
         f"cannot translate JAX primitive {name!r} (in {eqn}); supported: "
         f"{', '.join(sorted([*PRIMITIVES, 'integer_pow', 'square', 'jit/pjit', 'custom_jvp_call', 'custom_vjp_call', 'scan (unrolled)', 'cond', 'slice', 'gather', 'dynamic_slice', 'reduce_*']))}"
@@ -493,10 +504,7 @@ def trace(family: Family, *, float64: bool = False) -> Program:
     on), its constants and `values` kept in float64, for evaluating it in float64 on the host
     (`Program.evaluate_numpy` and shader code are float32).
     """
-    if isinstance(family, type) and issubclass(family, Family):
-        family = family()
-    if not isinstance(family, Family):
-        raise BadTypeError(f"expected an attenfit.Family instance, got {type(family).__name__}")
+    family = as_family(family)
     if float64 and not jax.config.jax_enable_x64:
         raise BadValueError("trace(float64=True) needs JAX's x64 mode (jax_enable_x64)")
     dtype = np.float64 if float64 else np.float32

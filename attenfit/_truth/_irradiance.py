@@ -37,6 +37,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError
+from ._capsule import capsule_frame, horizon_crossings, stadium_interval
 from ._emitters import (
     AbstractEmitter,
     CapsuleEmitter,
@@ -348,111 +349,9 @@ def _disk(c, m, r, I, p: Array, n: Array, *, two_sided: bool) -> Array:
 
 
 # ----------------------------------------------------------------------------- capsule
-def _capsule_one(a, b, r, I, p, n, *, nodes: int) -> Array:
-    """Capsule irradiance by a pencil of planes through `p` parallel to the axis.
-
-    Directions are written omega = cos(chi) e + sin(chi) f(eta), f(eta) = cos(eta) f1 +
-    sin(eta) f2, with e the axis, f1 the unit vector from p towards the axis, eta in
-    (-pi/2, pi/2], chi in (-pi, pi]; d omega = |sin chi| d chi d eta. The plane at eta cuts
-    the capsule in a 2D stadium (radius r' = sqrt(r^2 - rho^2 sin^2 eta)), which p sees
-    under one interval of chi (the hull of its two end discs' intervals); the chi-integral
-    of max(0, n.omega) |sin chi| over it is done in closed form. The eta-integral is
-    Gauss-Legendre in tau with sin(eta) = min(1, r/rho) sin(tau), which removes the
-    square-root endpoints. Receivers on or inside the capsule give NaN.
-    """
-    dt = p.dtype
-    ab = b - a
-    ell2 = _dot(ab, ab)
-    has_len = ell2 > 0
-    ell = _safe_sqrt(ell2)
-    e = jnp.where(has_len, ab / jnp.where(has_len, ell, 1.0), jnp.asarray([0.0, 0.0, 1.0], dt))
-    ap = a - p
-    alpha_a = _dot(ap, e)
-    qv = ap - alpha_a * e
-    rho2 = _dot(qv, qv)
-    # inside test: distance from p to the segment
-    tcl = jnp.clip(-alpha_a, 0.0, ell)
-    dist2 = rho2 + (alpha_a + tcl) ** 2
-    valid = dist2 > r * r
-    # frame
-    has_rho = rho2 > (1e-12 * r) ** 2
-    rho = _safe_sqrt(rho2)
-    # any unit vector perpendicular to e, for receivers on the axis
-    helper = jnp.where(
-        jnp.abs(e[0]) < 0.9, jnp.asarray([1.0, 0, 0], dt), jnp.asarray([0, 1.0, 0], dt)
-    )
-    fallback = jnp.cross(e, helper)
-    fallback = fallback / jnp.linalg.norm(fallback)
-    f1 = jnp.where(has_rho, qv / jnp.where(has_rho, rho, 1.0), fallback)
-    f2 = jnp.cross(e, f1)
-    kappa = jnp.minimum(r / jnp.where(has_rho, rho, r), 1.0)
-    ne, n1, n2 = _dot(n, e), _dot(n, f1), _dot(n, f2)
-
-    # The chi-integral is a smooth function of tau except where the horizon crosses the
-    # silhouette (the end spheres' silhouette circles; the straight silhouette lines sit at
-    # tau = +-pi/2): split the tau-range there and use Gauss-Legendre on each panel.
-    def tau_of(omega):
-        x, y = _dot(omega, f1), _dot(omega, f2)
-        eta = jnp.arctan(y / jnp.where(x == 0, 1e-30, x))
-        x = jnp.sin(eta) / kappa
-        inner = jnp.abs(x) < 1
-        return jnp.where(inner, jnp.arcsin(jnp.where(inner, x, 0.0)), jnp.sign(x) * (_PI / 2))
-
-    def crossings(cc):
-        vv = cc - p
-        Dv2 = _dot(vv, vv)
-        Dv = jnp.sqrt(jnp.where(Dv2 > r * r, Dv2, (2 * r) ** 2))
-        uu = vv / Dv
-        cos_al = jnp.sqrt((1 - r / Dv) * (1 + r / Dv))
-        uh = uu - _dot(uu, n) * n
-        mh = _safe_sqrt(_dot(uh, uh))
-        ok = (mh > 0) & (cos_al < mh)
-        h1 = uh / jnp.where(ok, mh, 1.0)
-        h2 = jnp.cross(n, h1)
-        cphi = jnp.where(ok, cos_al / jnp.where(ok, mh, 1.0), 0.0)
-        sphi = _safe_sqrt((1 - cphi) * (1 + cphi))
-        t1 = tau_of(cphi * h1 + sphi * h2)
-        t2 = tau_of(cphi * h1 - sphi * h2)
-        return jnp.where(ok, t1, -_PI / 2), jnp.where(ok, t2, -_PI / 2)
-
-    half_pi = jnp.asarray(_PI / 2, dt)
-    edges = jnp.sort(jnp.stack([-half_pi, *crossings(a), *crossings(b), half_pi]))
-    lo_e, hi_e = edges[:-1], edges[1:]
-    xg, wg = _gauss_legendre(nodes, dt)
-    tau = ((lo_e + hi_e) / 2)[:, None] + ((hi_e - lo_e) / 2)[:, None] * xg[None, :]
-    wtau = ((hi_e - lo_e) / 2)[:, None] * wg[None, :]
-    tau, wtau = tau.reshape(-1), wtau.reshape(-1)
-    sin_eta = kappa * jnp.sin(tau)
-    cos_eta = _safe_sqrt((1 - sin_eta) * (1 + sin_eta))
-    # d eta / d tau = kappa cos(tau) / cos(eta); exactly 1 when kappa == 1 (eta == tau)
-    deta = wtau * jnp.where(
-        kappa < 1, kappa * jnp.cos(tau) / jnp.where(cos_eta > 0, cos_eta, 1.0), 1.0
-    )
-    # r'^2 = r^2 - rho^2 sin^2 eta; with kappa < 1 that is r^2 cos^2 tau exactly
-    rp2 = jnp.where(kappa < 1, (r * jnp.cos(tau)) ** 2, r * r - rho2 * sin_eta**2)
-    rp = _safe_sqrt(rp2)
-    beta0 = rho * cos_eta
-    alpha_m = alpha_a + ell / 2
-    dA = jnp.sqrt(alpha_a**2 + beta0**2)
-    dB = jnp.sqrt((alpha_a + ell) ** 2 + beta0**2)
-    dM = jnp.sqrt(alpha_m**2 + beta0**2)
-    hA = jnp.arcsin(jnp.clip(rp / dA, 0.0, 1.0))
-    hB = jnp.arcsin(jnp.clip(rp / dB, 0.0, 1.0))
-    # The end directions thA, thB relative to the midpoint's th0, from cross and dot products
-    # (no cancellation): far away thA - thB ~ l/d is tiny next to th0 ~ pi/2, and taking the
-    # difference of the absolute angles lost it (float32: 4e-4 relative error at 1e4 r).
-    th0 = jnp.arctan2(beta0, alpha_m)
-    iA, iB, iM = (1 / jnp.where(x > 0, x, 1.0) for x in (dA, dB, dM))
-    half_l = ell / 2 * iM
-    dthA = jnp.arctan2(beta0 * iA * half_l, alpha_a * iA * alpha_m * iM + beta0 * iA * beta0 * iM)
-    dthB = jnp.arctan2(
-        -beta0 * iB * half_l, (alpha_a + ell) * iB * alpha_m * iM + beta0 * iB * beta0 * iM
-    )
-    rel1 = jnp.minimum(dthA - hA, dthB - hB)
-    rel2 = jnp.maximum(dthA + hA, dthB + hB)
-    # horizon: n.omega = A cos chi + B sin chi = R cos(chi - chin) > 0
-    A = ne
-    B = cos_eta * n1 + sin_eta * n2
+def _chi_integral(A, B, th0, rel1, rel2):
+    """The integral of max(0, n.omega) |sin chi| over chi in th0 + [rel1, rel2], n.omega =
+    A cos chi + B sin chi = R cos(chi - chin), in closed form (clipped at the horizon)."""
     chin = jnp.arctan2(B, jnp.where((A == 0) & (B == 0), 1.0, A))
     mid, half = th0 + (rel1 + rel2) / 2, (rel2 - rel1) / 2
     mrel = jnp.mod(mid - chin + _PI, 2 * _PI) - _PI
@@ -475,14 +374,54 @@ def _capsule_one(a, b, r, I, p, n, *, nodes: int) -> Array:
 
     kpi = _PI * jnp.ceil(lo / _PI)
     first = jnp.where(hi > kpi, kpi - lo, width)
-    inner = piece(lo, jnp.minimum(hi, kpi), first) + piece(jnp.maximum(lo, kpi), hi)
+    return piece(lo, jnp.minimum(hi, kpi), first) + piece(jnp.maximum(lo, kpi), hi)
+
+
+def _capsule_one(a, b, r, I, p, n, *, nodes: int) -> Array:
+    """Capsule irradiance by a pencil of planes through `p` parallel to the axis.
+
+    Directions are written omega = cos(chi) e + sin(chi) f(eta), f(eta) = cos(eta) f1 +
+    sin(eta) f2, with e the axis, f1 the unit vector from p towards the axis, eta in
+    (-pi/2, pi/2], chi in (-pi, pi]; d omega = |sin chi| d chi d eta. The plane at eta cuts
+    the capsule in a 2D stadium (radius r' = sqrt(r^2 - rho^2 sin^2 eta)), which p sees
+    under one interval of chi (the hull of its two end discs' intervals, `_capsule`);
+    the chi-integral of max(0, n.omega) |sin chi| over it is done in closed form
+    (`_chi_integral`). The eta-integral is Gauss-Legendre in tau with sin(eta) = min(1,
+    r/rho) sin(tau), which removes the square-root endpoints. Receivers on or inside the
+    capsule give NaN.
+    """
+    fr, valid = capsule_frame(a, b, r, p)
+    ne, n1, n2 = _dot(n, fr.e), _dot(n, fr.f1), _dot(n, fr.f2)
+    # The chi-integral is a smooth function of tau except where the horizon crosses the
+    # silhouette (the end spheres' silhouette circles; the straight silhouette lines sit at
+    # tau = +-pi/2): split the tau-range there and use Gauss-Legendre on each panel.
+    half_pi = jnp.asarray(_PI / 2, p.dtype)
+    ends = (*horizon_crossings(fr, a, r, p, n), *horizon_crossings(fr, b, r, p, n))
+    edges = jnp.sort(jnp.stack([-half_pi, *ends, half_pi]))
+    lo_e, hi_e = edges[:-1], edges[1:]
+    xg, wg = _gauss_legendre(nodes, p.dtype)
+    tau = ((lo_e + hi_e) / 2)[:, None] + ((hi_e - lo_e) / 2)[:, None] * xg[None, :]
+    wtau = ((hi_e - lo_e) / 2)[:, None] * wg[None, :]
+    tau, wtau = tau.reshape(-1), wtau.reshape(-1)
+    kappa = fr.kappa
+    sin_eta = kappa * jnp.sin(tau)
+    cos_eta = _safe_sqrt((1 - sin_eta) * (1 + sin_eta))
+    # d eta / d tau = kappa cos(tau) / cos(eta); exactly 1 when kappa == 1 (eta == tau)
+    deta = wtau * jnp.where(
+        kappa < 1, kappa * jnp.cos(tau) / jnp.where(cos_eta > 0, cos_eta, 1.0), 1.0
+    )
+    th0, rel1, rel2 = stadium_interval(fr, r, sin_eta, cos_eta, tau)
+    # horizon: n.omega = A cos chi + B sin chi
+    A = ne
+    B = cos_eta * n1 + sin_eta * n2
+    inner = _chi_integral(A, B, th0, rel1, rel2)
     # >= 0 (rounding leaves a few ulps of either sign where the horizon halves a distant capsule)
     E = jnp.maximum(I / (_PI * r * r) * jnp.sum(deta * inner), 0.0)
     # Inside the infinite cylinder (rho <= r) but outside the capsule, rays can only enter
     # through the near end's hemisphere: the capsule looks exactly like that end's sphere.
-    near = jnp.where(alpha_a > 0, a, b)
+    near = jnp.where(fr.alpha_a > 0, a, b)
     E_end = _sphere_one(near, r, I, p, n)
-    E = jnp.where(rho2 <= r * r, E_end, E)
+    E = jnp.where(fr.rho2 <= r * r, E_end, E)
     return jnp.where(valid, E, jnp.nan)
 
 
