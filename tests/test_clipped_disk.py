@@ -22,13 +22,9 @@ import pytest
 
 import attenfit as af
 from attenfit import area
+from attenfit._curves import AREA_FORM_INPUTS
 from attenfit._judge import worst_case
-from attenfit._shaders._area_forms import (
-    AREA_FORM_INPUTS,
-    area_compiled_cost,
-    area_function_source,
-    evaluate_area_form,
-)
+from attenfit._shaders import area_compiled_cost, area_function_source, evaluate_area_form
 
 R = 0.3
 DISK = af.DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], R)  # faces -z

@@ -41,14 +41,13 @@ import math
 
 import jax.numpy as jnp
 
-from .._ir import Expr, Lets, Ref, ShaderForm, fn
+from .._ir import Expr, Lets, Ref, fn
 from ._area import AreaModel, register_area_model, safe_sqrt
 from ._area_models import VectorDisk
+from ._forms import area_shader
 
 __all__ = ["ClippedDisk"]
 
-#: The per-receiver inputs of an area model's shader form (`_shaders._area_exprs`).
-_FORM_INPUTS = ("d", "cos_r", "cos_e", "cos_n", "g")
 #: Below this r / sqrt(d^2 + r^2), float32 takes the cap where the horizon cuts the disk.
 _FAR_RT_F32 = 1e-3
 #: Below this |y|, atan(y)/y and log1p(y)/y by two terms of their series.
@@ -156,17 +155,17 @@ class ClippedDisk(AreaModel):
             e = jnp.where(cut & far, cap, e)
         return e
 
-    def shader_form(self) -> ShaderForm:
+    @area_shader(
+        "Lambert 1760 via Arvo 1994 eq. 2 and Heitz et al. 2016 eq. 11 (the contour form); "
+        "Sparrow 1963 (Stokes' theorem); the vector form of Howell B-12/B-14 above the horizon",
+        engine=False,
+        note="float32 keeps eps d/r of the facing value where the horizon cuts the disk (no "
+        "cap beyond 1000 r, unlike the float32 JAX form)",
+    )
+    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
         """The contour in the expression language of `attenfit._ir` (no guards: the shader
         reads receivers in front of the disk, `cos_e > 0`, and off its rim)."""
-        let = Lets()
-        result = _contour_form(let, {x: Ref(x, "d") for x in _FORM_INPUTS}, Ref("radius", "param"))
-        return ShaderForm(
-            self.name, ("radius",), tuple(let.items), result, self.source, False,
-            "float32 keeps eps d/r of the facing value where the horizon cuts the disk (no "
-            "cap beyond 1000 r, unlike the float32 JAX form)",
-            _FORM_INPUTS,
-        )  # fmt: skip
+        return _contour_form(let, x, p["radius"])
 
 
 def _sign(s: Expr, tie: Expr) -> Expr:
