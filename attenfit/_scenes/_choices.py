@@ -123,7 +123,7 @@ def _is_windowed(c: Candidate) -> bool:
 def _volume(light, R: float) -> float:
     if light.is_spot:
         return 2 / 3 * math.pi * (1 - math.cos(math.radians(light.umbra))) * R**3
-    if light.kind == "disk":
+    if light.kind in ("disk", "rect"):
         return 2 / 3 * math.pi * R**3
     return 4 / 3 * math.pi * R**3
 
