@@ -370,3 +370,19 @@ def test_the_datasets_take_the_tube():
     dist, _ = tube.point_light(rand.points.astype(np.float64), rand.normals.astype(np.float64))
     scale = float(tube.intensity) * 2 * 1.2 / (math.pi * 0.013) / np.asarray(dist) ** 2
     assert np.all(np.abs(rand.E - E64) <= 1e-5 * np.minimum(scale, 2.0 / 0.013**2))
+
+
+def test_a_tube_wholly_below_the_horizon_gives_exactly_nothing():
+    """Random receivers (half of their normals near the horizon): wherever every point of the
+    tube lies below the receiver's plane (a dense sample of its surface), E is exactly 0, not
+    rounding (Mitsuba's witness can then only agree)."""
+    import attenfit as af
+
+    tube = af.TubeEmitter([-0.5, 0.0, 0.0], [0.5, 0.0, 0.0], 0.1)
+    ds = af.random_receivers(tube, 256, 0.1001, 100.0, seed=11, dtype="float64")
+    phi, z = np.meshgrid(np.linspace(0, 2 * np.pi, 361), np.linspace(-0.5, 0.5, 101))
+    surf = np.stack([z, 0.1 * np.cos(phi), 0.1 * np.sin(phi)], -1).reshape(-1, 3)
+    h = np.einsum("sk,nk->ns", surf, ds.normals) - np.sum(ds.points * ds.normals, axis=1)[:, None]
+    below = h.max(axis=1) < -1e-3
+    assert below.sum() > 20
+    assert np.all(ds.E[below] == 0.0)

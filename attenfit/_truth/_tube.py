@@ -304,8 +304,9 @@ def _side_near(g):
             pc = _cross_psi(g, za, pa, pb)
             lo = jnp.where(ia, pa, pc)
             hi = jnp.where(ib, pb, pc)
-            hi = jnp.where(ia | ib, hi, lo)
-            total = total + _arc(g, za - zp, lo, hi)
+            # a piece wholly below contributes exactly 0 (XLA's vector and scalar lanes may
+            # round J(lo) and J(hi) of equal arguments differently)
+            total = total + jnp.where(ia | ib, _arc(g, za - zp, lo, hi), 0.0)
             cpsi, cz = pc, za
         else:
             den = hv[i] - hv[j]
@@ -313,9 +314,8 @@ def _side_near(g):
             zc = jnp.clip(zc, jnp.minimum(za, zb), jnp.maximum(za, zb))
             lo = jnp.where(ia, za, zc)
             hi = jnp.where(ib, zb, zc)
-            hi = jnp.where(ia | ib, hi, lo)
             s = 1.0 if i == 2 else -1.0
-            total = total + _generator(g, s, hs, lo, hi)
+            total = total + jnp.where(ia | ib, _generator(g, s, hs, lo, hi), 0.0)
             cpsi, cz = pa, zc
         vec = (cz - zp) * jnp.asarray([0.0, 0.0, 1.0], beta.dtype)  # in (rho^, t^, e)
         vec = vec + jnp.stack([r * jnp.cos(cpsi) - rho, r * jnp.sin(cpsi), zero])
