@@ -29,6 +29,7 @@ rectangle or makes the cylinder's cross-section an ellipse.
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Callable
 from typing import Any
 
@@ -76,6 +77,19 @@ def _intensity(
     return 2.0**log2
 
 
+def _check_sizes(where: str, sizes: dict[str, float]) -> None:
+    """Refuse sizes (m, after the transform's scale) that are not positive or whose products
+    (areas, squares) are not normal floats."""
+    a, b = sizes.values()
+    if not (a > 0 and b > 0 and math.isfinite(a * b) and min(a * b, b * b) >= sys.float_info.min):
+        shown = ", ".join(f"{k} {v:g} m" for k, v in sizes.items())
+        names = ", ".join(f"inputs:{k}" for k in sizes)
+        raise BadValueError(
+            f"{where}: {shown} ({names} x scale): must be positive, with an area and squares "
+            "that are normal floats"
+        )
+
+
 def _check_shaping(prim, UsdLux, number: Callable, where: str) -> None:
     if not prim.HasAPI(UsdLux.ShapingAPI):
         return
@@ -98,11 +112,7 @@ def _rect(prim, m, mpu, where, UsdLux, number, flag) -> tuple[dict[str, Any], st
     if abs(float(axes[0] @ axes[1])) > 1e-6:
         raise NotModelled(f"{where}: its transform shears it (not a rectangle)")
     w, h = w_local * float(s[0]), h_local * float(s[1])
-    if not (w > 0 and h > 0 and math.isfinite(w * h) and w * h > 0):
-        raise BadValueError(
-            f"{where}: width {w:g} m x height {h:g} m (inputs:width, inputs:height x scale): "
-            "must be positive, with an area that is a normal float"
-        )
+    _check_sizes(where, {"width": w, "height": h})
     _check_shaping(prim, UsdLux, number, where)
     normal = -np.cross(axes[0], axes[1])  # -Z, as the X and Y axes see it (mirrors included)
     kw = dict(
@@ -130,11 +140,7 @@ def _cylinder(prim, m, mpu, where, UsdLux, number, flag) -> tuple[dict[str, Any]
     if abs(float(axes[0] @ axes[1])) > 1e-6 or abs(float(axes[0] @ axes[2])) > 1e-6:
         raise NotModelled(f"{where}: its transform shears it (not a right cylinder)")
     length, radius = l_local * float(s[0]), r_local * float(s[1])
-    if not (length > 0 and radius > 0 and math.isfinite(length * radius) and radius * radius > 0):
-        raise BadValueError(
-            f"{where}: length {length:g} m, radius {radius:g} m (inputs:length, inputs:radius "
-            "x scale): must be positive, with squares that are normal floats"
-        )
+    _check_sizes(where, {"length": length, "radius": radius})
     side = 2 * math.pi * radius * length
     kw = dict(
         kind="tube",
