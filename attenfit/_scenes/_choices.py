@@ -255,7 +255,11 @@ def _spot_of(pick: Candidate, i: int, light, engine: Engine | None):
             "penumbra": math.degrees(float(spot_model.penumbra)),
         }
     if engine is not None and renders_as_spot(light):
-        return None, {"falloff": "engine cone (the disk's cosine)", "umbra": 90.0, "penumbra": 0.0}
+        return None, {
+            "falloff": f"engine cone (the {light.kind}'s cosine)",
+            "umbra": 90.0,
+            "penumbra": 0.0,
+        }
     return None, None
 
 
