@@ -94,6 +94,7 @@ if TYPE_CHECKING:  # the public API, imported on first use (`__getattr__` reads 
     from ._truth import CapsuleEmitter as CapsuleEmitter
     from ._truth import DiskEmitter as DiskEmitter
     from ._truth import RectEmitter as RectEmitter
+    from ._truth import TubeEmitter as TubeEmitter
     from ._truth import SphereEmitter as SphereEmitter
     from ._truth import emitter_from_dict as emitter_from_dict
 

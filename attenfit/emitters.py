@@ -1,5 +1,6 @@
-"""Lambertian area emitters (sphere, one- or two-sided disk, capsule, one-sided rectangle) and
-the point light each stands in for. Implemented in `attenfit._truth._emitters` and `_rect`;
+"""Lambertian area emitters (sphere, one- or two-sided disk, capsule, one-sided rectangle, tube)
+and the point light each stands in for. Implemented in `attenfit._truth._emitters`, `_rect` and
+`_tube`;
 docs/ground-truth.md.
 """
 
@@ -8,6 +9,7 @@ from ._truth import CapsuleEmitter as CapsuleEmitter
 from ._truth import DiskEmitter as DiskEmitter
 from ._truth import RectEmitter as RectEmitter
 from ._truth import SphereEmitter as SphereEmitter
+from ._truth import TubeEmitter as TubeEmitter
 from ._truth import emitter_from_dict as emitter_from_dict
 
 __all__ = [
@@ -16,5 +18,6 @@ __all__ = [
     "DiskEmitter",
     "RectEmitter",
     "SphereEmitter",
+    "TubeEmitter",
     "emitter_from_dict",
 ]

@@ -19,7 +19,14 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from attenfit import BadValueError, CapsuleEmitter, DiskEmitter, SphereEmitter
+from attenfit import (
+    BadValueError,
+    CapsuleEmitter,
+    DiskEmitter,
+    RectEmitter,
+    SphereEmitter,
+    TubeEmitter,
+)
 from attenfit._truth._clearance import (
     CLEARANCE,
     SURFACE_OFFSET,
@@ -27,7 +34,7 @@ from attenfit._truth._clearance import (
     surface_distance,
 )
 
-from .scenes import CapsuleLight, DiskLight, Light, Plane, SphereLight
+from .scenes import CapsuleLight, DiskLight, Light, Plane, RectLight, SphereLight, TubeLight
 
 __all__ = ["check_clearance", "emitter_of", "ray_origins"]
 
@@ -40,6 +47,10 @@ def emitter_of(light: Light):
         return DiskEmitter(light.center, light.normal, light.radius, 1.0, light.two_sided)
     if isinstance(light, CapsuleLight):
         return CapsuleEmitter(light.a, light.b, light.radius, 1.0)
+    if isinstance(light, RectLight):
+        return RectEmitter(light.center, light.normal, light.tangent, light.width, light.height)
+    if isinstance(light, TubeLight):
+        return TubeEmitter(light.a, light.b, light.radius, 1.0, light.caps)
     raise BadValueError(f"not a light: {light!r}")
 
 

@@ -71,6 +71,7 @@ from .scenes import (
     DiskLight,
     Light,
     Plane,
+    RectLight,
     SphereLight,
     light_spheres,
     scene_components,
@@ -140,7 +141,7 @@ def _check_args(lights, points, normals, spp, seed, first_index):
     bad = [i for i, light in enumerate(lights) if not isinstance(light, LIGHT_TYPES)]
     if bad:
         raise BadTypeError(
-            f"lights[{bad[0]}] must be a SphereLight, DiskLight or CapsuleLight, "
+            f"lights[{bad[0]}] must be a SphereLight, DiskLight, CapsuleLight, RectLight or TubeLight, "
             f"got {type(lights[bad[0]]).__name__}"
         )
     if lights:
@@ -394,6 +395,9 @@ def _sample_bound(lights, points, normals) -> np.ndarray:
         if isinstance(light, DiskLight):
             centre, ball = np.asarray(light.center), light.radius
             area = math.pi * light.radius**2
+        elif isinstance(light, RectLight):
+            centre, ball = np.asarray(light.center), math.hypot(light.width, light.height) / 2
+            area = light.width * light.height
         else:
             a, b = np.asarray(light.a), np.asarray(light.b)
             centre, half = (a + b) / 2, float(np.linalg.norm(b - a)) / 2

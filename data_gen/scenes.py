@@ -1,9 +1,9 @@
 """Mitsuba 3 scenes for attenfit's emitters, as plain data.
 
-A light is described by a small frozen record (`SphereLight`, `DiskLight`, `CapsuleLight`)
-holding numbers only; `scene_components` turns a list of them, plus an optional opaque
+A light is described by a small frozen record (`SphereLight`, `DiskLight`, `CapsuleLight`,
+`RectLight`, `TubeLight`) holding numbers only; `scene_components` turns a list of them, plus an optional opaque
 `Plane`, into the plain dictionaries that `mitsuba.load_dict` accepts. Each light is made of
-Mitsuba `sphere`, `disk` or `cylinder` shapes carrying an `area` emitter of uniform radiance
+Mitsuba `sphere`, `disk`, `rectangle` or `cylinder` shapes carrying an `area` emitter of uniform radiance
 L (Lambertian), with L the radiance that the point-equivalent intensity implies,
 L = I / (pi r^2) (docs/architecture.md, Conventions).
 
@@ -35,7 +35,9 @@ __all__ = [
     "DiskLight",
     "Light",
     "Plane",
+    "RectLight",
     "SphereLight",
+    "TubeLight",
     "light_spheres",
     "lights_from_emitter",
     "plane_axes",
@@ -135,8 +137,52 @@ class CapsuleLight:
         object.__setattr__(self, "radiance", _positive("radiance", self.radiance))
 
 
-Light = SphereLight | DiskLight | CapsuleLight
-LIGHT_TYPES = (SphereLight, DiskLight, CapsuleLight)
+@dataclass(frozen=True)
+class RectLight:
+    """A one-sided Lambertian rectangle light: centre, unit `normal` (it emits along it), unit
+    `tangent` along its `width`, `height` along `normal x tangent` (Mitsuba's `rectangle`)."""
+
+    center: Vec3
+    normal: Vec3
+    tangent: Vec3
+    width: float
+    height: float
+    radiance: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "center", _vec3("center", self.center))
+        object.__setattr__(self, "normal", _unit("normal", self.normal))
+        object.__setattr__(self, "tangent", _unit("tangent", self.tangent))
+        for name in ("width", "height", "radiance"):
+            object.__setattr__(self, name, _positive(name, getattr(self, name)))
+
+    @property
+    def radius(self) -> float:
+        """The radius of the disk of the same area (as `attenfit.RectEmitter.radius`)."""
+        return float(np.sqrt(self.width * self.height / np.pi))
+
+
+@dataclass(frozen=True)
+class TubeLight:
+    """A Lambertian tube light: the side of the cylinder of `radius` around `a`-`b` (Mitsuba's
+    `cylinder`, which has no end caps and emits outward), and its two end disks if `caps`."""
+
+    a: Vec3
+    b: Vec3
+    radius: float
+    radiance: float
+    caps: bool = False
+
+    def __post_init__(self):
+        object.__setattr__(self, "a", _vec3("a", self.a))
+        object.__setattr__(self, "b", _vec3("b", self.b))
+        object.__setattr__(self, "radius", _positive("radius", self.radius))
+        object.__setattr__(self, "radiance", _positive("radiance", self.radiance))
+        object.__setattr__(self, "caps", bool(self.caps))
+
+
+Light = SphereLight | DiskLight | CapsuleLight | RectLight | TubeLight
+LIGHT_TYPES = (SphereLight, DiskLight, CapsuleLight, RectLight, TubeLight)
 
 
 def light_spheres(light: Light) -> list[SphereLight]:
@@ -170,9 +216,38 @@ class _Shape:
     only_in: str | None = None  # present only in that component (a disk's back face)
 
 
+def _rect_shape(mi, light: RectLight) -> dict:
+    """A Mitsuba `rectangle` ([-1, 1]^2 at z = 0, normal +z) mapped onto the light."""
+    m = np.asarray(light.normal)
+    u = np.asarray(light.tangent) - (np.asarray(light.tangent) @ m) * m
+    u /= np.linalg.norm(u)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1] = light.width / 2 * u, light.height / 2 * np.cross(m, u)
+    T[:3, 2], T[:3, 3] = m, light.center
+    return {"type": "rectangle", "to_world": mi.ScalarTransform4f(T.tolist())}
+
+
+def _tube_shapes(mi, i: int, light: TubeLight) -> list[_Shape]:
+    """An open `cylinder` (its normals point outward) and, with caps, a disk at each end."""
+    L = light.radiance
+    cyl = {"type": "cylinder", "p0": list(light.a), "p1": list(light.b), "radius": light.radius}
+    out = [_Shape(f"light_{i}_tube", cyl, "main", L)]
+    if light.caps:
+        a, b = np.asarray(light.a), np.asarray(light.b)
+        e = (b - a) / np.linalg.norm(b - a)
+        for name, c, m in (("a", light.a, -e), ("b", light.b, e)):
+            disk = {"type": "disk", "to_world": _frame(mi, c, tuple(m.tolist()), light.radius)}
+            out.append(_Shape(f"light_{i}_cap_{name}", disk, "main", L))
+    return out
+
+
 def _shapes(mi, i: int, light: Light) -> list[_Shape]:
     """The Mitsuba shapes of light `i`, each tagged with the component it emits in."""
     L = light.radiance
+    if isinstance(light, RectLight):
+        return [_Shape(f"light_{i}", _rect_shape(mi, light), "main", L)]
+    if isinstance(light, TubeLight):
+        return _tube_shapes(mi, i, light)
     if isinstance(light, DiskLight):
         front = {"type": "disk", "to_world": _frame(mi, light.center, light.normal, light.radius)}
         out = [_Shape(f"light_{i}", front, "main", L)]
@@ -257,8 +332,8 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
     for i, light in enumerate(lights):
         if not isinstance(light, LIGHT_TYPES):
             raise BadTypeError(
-                f"lights[{i}] must be a SphereLight, DiskLight or CapsuleLight, "
-                f"got {type(light).__name__}"
+                f"lights[{i}] must be a SphereLight, DiskLight, CapsuleLight, RectLight or "
+                f"TubeLight, got {type(light).__name__}"
             )
     shapes = [sh for i, light in enumerate(lights) for sh in _shapes(mi, i, light)]
     roles = list(dict.fromkeys(sh.role for sh in shapes))
@@ -292,8 +367,9 @@ def scene_components(mi, lights: Sequence[Light], plane: Plane | None = None) ->
 def lights_from_emitter(emitter) -> list[Light]:
     """The light records for an `attenfit` emitter (radiance from its `.radiance`).
 
-    Accepts `attenfit.SphereEmitter`, `DiskEmitter` and `CapsuleEmitter` (by class name and
-    fields, so `data_gen` needs nothing else from `attenfit.emitters`).
+    Accepts `attenfit.SphereEmitter`, `DiskEmitter`, `CapsuleEmitter`, `RectEmitter` and
+    `TubeEmitter` (by class name and fields, so `data_gen` needs nothing else from
+    `attenfit.emitters`).
     """
     kind = type(emitter).__name__
     radius = float(np.asarray(emitter.radius))
@@ -325,6 +401,28 @@ def lights_from_emitter(emitter) -> list[Light]:
                 radiance=radiance,
             )
         ]
+    if kind == "RectEmitter":
+        return [
+            RectLight(
+                center=np.asarray(emitter.center, dtype=np.float64),
+                normal=np.asarray(emitter.normal, dtype=np.float64),
+                tangent=np.asarray(emitter.tangent, dtype=np.float64),
+                width=float(emitter.width),
+                height=float(emitter.height),
+                radiance=radiance,
+            )
+        ]
+    if kind == "TubeEmitter":
+        return [
+            TubeLight(
+                a=np.asarray(emitter.a, dtype=np.float64),
+                b=np.asarray(emitter.b, dtype=np.float64),
+                radius=radius,
+                radiance=radiance,
+                caps=bool(emitter.caps),
+            )
+        ]
     raise BadTypeError(
-        f"Mitsuba ground truth supports SphereEmitter, DiskEmitter and CapsuleEmitter, got {kind}"
+        "Mitsuba ground truth supports SphereEmitter, DiskEmitter, CapsuleEmitter, RectEmitter "
+        f"and TubeEmitter, got {kind}"
     )

@@ -37,7 +37,7 @@ def witness_templates(emitters: Mapping[str, Any], *, seed: int = 0) -> list[tup
     out = []
     for name, em in emitters.items():
         r = float(np.asarray(em.radius))
-        disk = isinstance(em, af.DiskEmitter)
+        disk = isinstance(em, af.DiskEmitter | af.RectEmitter)  # flat: a floor r/4 below
         height = r / 4 if disk else r  # as the report's floor: the disk r/4 above, else touching
         floor = af.plane_receivers(em, height, 10 * r, n=WITNESS_FLOOR_PX, dtype="float64")
         lo = 1e-3 * r if disk else 1.001 * r

@@ -60,7 +60,9 @@ def test_good_scene_parses_and_round_trips(tmp_path):
 def test_example_scenes_parse():
     names = sorted(p.name for p in EXAMPLES.glob("*.toml"))
     assert names == [
+        "batten.toml",
         "downlight.toml",
+        "panel.toml",
         "room.toml",
         "short_range.toml",
         "spotlight.toml",
@@ -96,7 +98,7 @@ BAD = [
     (
         "tolerance = 0.05\n" + '[[lights]]\nkind = "laser"\nradius = 0.1\nheight = 1\n' + _RECV,
         UnknownNameError,
-        "bad.toml: [[lights]][0].kind: unknown kind 'laser'; allowed: sphere, disk, capsule, spot",
+        "bad.toml: [[lights]][0].kind: unknown kind 'laser'; allowed: sphere, disk, capsule, spot, rect, tube",
     ),
     (
         "tolerance = nan\n" + _LIGHT + _RECV,

@@ -196,19 +196,19 @@ def test_usd_refusals_name_the_prim(tmp_path):
     with pytest.raises(BadValueError, match=r"SphereLight /World/squash/bulb: non-uniform scale"):
         load_mesh_scene(_usd(tmp_path, nonuniform, "a.usda"), notice=_quiet)
 
-    def rect(stage):
+    def dome(stage):
         _floor(stage)
         UsdLux.SphereLight.Define(stage, "/World/bulb").AddTranslateOp().Set(Gf.Vec3d(0, 0, 2))
-        UsdLux.RectLight.Define(stage, "/World/panel")
+        UsdLux.DomeLight.Define(stage, "/World/sky")
 
     notes: list[str] = []
-    im = load_mesh_scene(_usd(tmp_path, rect, "b.usda"), notice=notes.append, samples=16)
+    im = load_mesh_scene(_usd(tmp_path, dome, "b.usda"), notice=notes.append, samples=16)
     assert im.names == ("/World/bulb",)
     assert notes == [
-        "b.usda: RectLight /World/panel: not modelled (attenfit takes sphere, disk and spot "
-        "lights); skipped"
+        "b.usda: DomeLight /World/sky: not modelled (attenfit takes sphere, disk, spot, rect "
+        "and cylinder lights); skipped"
     ]
-    with pytest.raises(BadValueError, match=r"RectLight /World/panel: .*--strict refuses it"):
+    with pytest.raises(BadValueError, match=r"DomeLight /World/sky: .*--strict refuses it"):
         load_mesh_scene(tmp_path / "b.usda", notice=_quiet, strict=True)
 
     def point(stage):
@@ -484,8 +484,13 @@ def test_the_blender_example_reads_as_blender_wrote_it():
     """examples/scenes/blender: Blender 4.2's own USD and glTF exports of one room."""
     room = EXAMPLE / "blender"
     im = load_mesh_scene(room / "room.usda", samples=32, notice=_quiet)
-    assert im.names == ("/root/Rig/Bulb/Bulb", "/root/Spot/Spot", "/root/Panel/Panel")
-    bulb, spot, panel = im.scene.lights
+    assert im.names == (
+        "/root/Rig/Bulb/Bulb",
+        "/root/Spot/Spot",
+        "/root/Panel/Panel",
+        "/root/Strip/Strip",
+    )
+    bulb, spot, panel, strip = im.scene.lights
     # the bulb hangs 0.6 m under a rig at (-1, -0.5, 2) turned 30 deg about Z
     assert bulb.position == pytest.approx((-1.0, -0.5, 2.6), abs=1e-6)
     # Blender: 60 W point light -> 60 / (4 pi) W/sr; 150 W disk -> 150 / pi W/sr on axis
@@ -497,10 +502,14 @@ def test_the_blender_example_reads_as_blender_wrote_it():
     assert math.cos(math.radians(spot.penumbra)) == pytest.approx(c + 0.3 * (1 - c), rel=1e-6)
     t = math.radians(-25)
     assert spot.direction == pytest.approx((0.0, math.sin(t), -math.cos(t)), abs=1e-6)
-    assert im.notices == (
-        "room.usda: RectLight /root/Strip/Strip: not modelled (attenfit takes sphere, disk "
-        "and spot lights); skipped",
-    )
+    # the 1 m x 0.1 m, 40 W rectangle at (2.5, 3.5, 3), facing down: Blender writes energy / pi
+    # with normalize = 1, so the radiance is 40 / (pi w h) and I = L w h = 40 / pi on its axis
+    assert (strip.kind, strip.size) == ("rect", pytest.approx((1.0, 0.1)))
+    assert strip.position == pytest.approx((2.5, 3.5, 3.0), abs=1e-6)
+    assert strip.normal == pytest.approx((0.0, 0.0, -1.0), abs=1e-6)
+    assert strip.tangent == pytest.approx((1.0, 0.0, 0.0), abs=1e-6)
+    assert strip.intensity == pytest.approx(40 / math.pi, rel=1e-6)
+    assert im.notices == ()
     # the glTF export: Y up (Blender's (x, y, z) is glTF's (x, z, -y)), intensity in candela
     gl = load_mesh_scene(room / "room.glb", side=room / "room.side.toml", samples=32)
     gbulb, gspot = gl.scene.lights

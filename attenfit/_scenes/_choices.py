@@ -123,7 +123,7 @@ def _is_windowed(c: Candidate) -> bool:
 def _volume(light, R: float) -> float:
     if light.is_spot:
         return 2 / 3 * math.pi * (1 - math.cos(math.radians(light.umbra))) * R**3
-    if light.kind == "disk":
+    if light.kind in ("disk", "rect"):
         return 2 / 3 * math.pi * R**3
     return 4 / 3 * math.pi * R**3
 
@@ -255,7 +255,11 @@ def _spot_of(pick: Candidate, i: int, light, engine: Engine | None):
             "penumbra": math.degrees(float(spot_model.penumbra)),
         }
     if engine is not None and renders_as_spot(light):
-        return None, {"falloff": "engine cone (the disk's cosine)", "umbra": 90.0, "penumbra": 0.0}
+        return None, {
+            "falloff": f"engine cone (the {light.kind}'s cosine)",
+            "umbra": 90.0,
+            "penumbra": 0.0,
+        }
     return None, None
 
 

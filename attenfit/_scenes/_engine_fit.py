@@ -47,8 +47,9 @@ class EngineVerdict:
 
 
 def renders_as_spot(light: SceneLight) -> bool:
-    """A spot, and a disk (its emission cosine: a cone is the engine's only way to it)."""
-    return light.is_spot or light.kind == "disk"
+    """A spot, and a disk or a rectangle (their emission cosine: a cone is the engine's only
+    way to it)."""
+    return light.is_spot or light.kind in ("disk", "rect")
 
 
 def _geometry(light: SceneLight, x: LightData) -> tuple[np.ndarray, np.ndarray]:
@@ -147,10 +148,10 @@ def engine_verdict(
                 f"({w.size_effect.split(':')[0]}) and renders further from the truth here"
             )
         )
-    if light.kind == "disk":
+    if light.kind in ("disk", "rect"):
         notes.append(
-            f"a disk: no {w.name} punctual light has an emission cosine; answered as a spot "
-            "whose cone is fitted to the disk's cosine through the engine's own cone"
+            f"a {light.kind}: no {w.name} punctual light has an emission cosine; answered as a "
+            f"spot whose cone is fitted to the {light.kind}'s cosine through the engine's own cone"
         )
     errs = _errors(w, best, light, x, geo)
     if not math.isfinite(best_e):

@@ -30,7 +30,15 @@ import numpy as np
 
 from .._curves import spot_frostbite, spot_threejs
 from .._errors import BadValueError
-from .._truth import AbstractEmitter, CapsuleEmitter, Dataset, DiskEmitter, irradiance
+from .._truth import (
+    AbstractEmitter,
+    CapsuleEmitter,
+    Dataset,
+    DiskEmitter,
+    RectEmitter,
+    TubeEmitter,
+    irradiance,
+)
 from ._types import (
     DistanceDistribution,
     LightTruth,
@@ -44,9 +52,21 @@ if TYPE_CHECKING:
 
 
 # ----------------------------------------------------------------------------- ground truth
+#: Lights around a segment `a -> b` (distances from the segment, receivers beside it).
+_SEGMENT = (CapsuleEmitter, TubeEmitter)
+
+
 def inside_light(em: AbstractEmitter, pts: np.ndarray, margin: float) -> np.ndarray:
-    if isinstance(em, DiskEmitter):
+    if isinstance(em, DiskEmitter | RectEmitter):
         return np.zeros(len(pts), dtype=bool)
+    if isinstance(em, TubeEmitter):  # the solid cylinder, no end hemispheres
+        a = np.asarray(em.a, dtype=np.float64)
+        ab = np.asarray(em.b, dtype=np.float64) - a
+        with np.errstate(over="ignore", invalid="ignore"):
+            t = np.nan_to_num((pts - a) @ ab / float(ab @ ab))
+        rho = _length(pts - (a + t[:, None] * ab))
+        grow = margin * float(em.radius) / float(np.linalg.norm(ab))
+        return (rho <= float(em.radius) * (1 + margin)) & (t >= -grow) & (t <= 1 + grow)
     return _distance_to(em, pts) <= float(em.radius) * (1 + margin)
 
 
@@ -56,8 +76,8 @@ def _length(v: np.ndarray) -> np.ndarray:
 
 
 def _distance_to(em: AbstractEmitter, pts: np.ndarray) -> np.ndarray:
-    """Distance of each point from the light's centre (capsule: from its segment)."""
-    if isinstance(em, CapsuleEmitter):
+    """Distance of each point from the light's centre (capsule, tube: from its segment)."""
+    if isinstance(em, _SEGMENT):
         a = np.asarray(em.a, dtype=np.float64)
         ab = np.asarray(em.b, dtype=np.float64) - a
         with np.errstate(over="ignore", invalid="ignore"):
@@ -80,11 +100,11 @@ def _basis(e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _light_axis(light: SceneLight) -> np.ndarray:
-    if light.kind == "disk":
+    if light.kind in ("disk", "rect"):
         return _unit(light.normal)
     if light.kind == "spot":
         return _unit(light.direction)
-    if light.kind == "capsule":
+    if light.kind in ("capsule", "tube"):
         return _unit(light.axis)
     return np.array([0.0, 0.0, -1.0])
 
@@ -100,7 +120,7 @@ def _plane_points(rec: PlaneReceivers) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _closest(em: AbstractEmitter, pts: np.ndarray) -> np.ndarray:
-    if isinstance(em, CapsuleEmitter):
+    if isinstance(em, _SEGMENT):
         return np.asarray(em.closest_point(pts), dtype=np.float64)
     return np.broadcast_to(np.asarray(em.reference_point(), dtype=np.float64), pts.shape)
 
@@ -131,7 +151,7 @@ def _distribution_points(
     u, v = _basis(axis)
     phi = rng.uniform(0, 2 * np.pi, size=n)
     ring = np.cos(phi)[:, None] * u + np.sin(phi)[:, None] * v
-    if isinstance(em, CapsuleEmitter):
+    if isinstance(em, _SEGMENT):
         a = np.asarray(em.a, dtype=np.float64)
         b = np.asarray(em.b, dtype=np.float64)
         base = a + rng.uniform(0, 1, size=(n, 1)) * (b - a)
@@ -185,9 +205,20 @@ def spot_profile(light: SceneLight, theta: np.ndarray) -> np.ndarray:
 _MAX_D_OVER_R = 1e12
 
 
-def light_truth(scene: Scene, i: int) -> LightTruth:
+def _facing_normals(em: AbstractEmitter, p: np.ndarray) -> np.ndarray:
+    """Unit normals from each point to the light's closest point (its centre, or its segment's)."""
+    n = _closest(em, p) - p
+    norm = np.linalg.norm(n, axis=1, keepdims=True)
+    n /= np.where(norm > 0, norm, 1)
+    n[~np.any(n != 0, axis=1)] = (0.0, 0.0, 1.0)
+    return n
+
+
+def _receivers_of(
+    scene: Scene, i: int, em: AbstractEmitter
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The receivers of light `i` outside it: points, unit normals, and their tables."""
     light = scene.lights[i]
-    em = light.emitter()
     pts_list, nrm_list, src = [], [], []
     for j, rec in enumerate(scene.receivers):
         if isinstance(rec, PointReceivers) and rec.light not in (None, i):
@@ -197,14 +228,7 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
         elif isinstance(rec, PointReceivers):
             p = np.asarray(rec.points, dtype=np.float64)
             if rec.normals is None:
-                q = _closest(em, p)
-                n = q - p
-                n /= np.where(
-                    np.linalg.norm(n, axis=1, keepdims=True) > 0,
-                    np.linalg.norm(n, axis=1, keepdims=True),
-                    1,
-                )
-                n[~np.any(n != 0, axis=1)] = (0.0, 0.0, 1.0)
+                n = _facing_normals(em, p)
             else:
                 n = np.asarray(rec.normals, dtype=np.float64).reshape(-1, 3)
                 n = n / np.linalg.norm(n, axis=1, keepdims=True)
@@ -221,20 +245,16 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
         raise BadValueError(
             f"{scene.source}: [[lights]][{i}]: every receiver lies inside this light"
         )
-    d = _distance_to(em, pts)
-    far = float(np.max(d)) / float(light.radius)
-    if not far <= _MAX_D_OVER_R:
-        where = src[int(np.argmax(d))]
-        raise BadValueError(
-            f"{scene.source}: {where}: a receiver lies {far:.3g} radii from [[lights]][{i}] "
-            f"({float(np.max(d)):.3g} m), "
-            f"beyond the {_MAX_D_OVER_R:.0e} radii within which attenfit judges a curve"
-        )
+    return pts, nrm, src
+
+
+def _exact(scene: Scene, i: int, em: AbstractEmitter, pts: np.ndarray, nrm: np.ndarray) -> Dataset:
+    """The light's exact irradiance at the receivers, as a dataset in JAX's default float."""
     E = np.asarray(irradiance(em, jnp.asarray(pts), jnp.asarray(nrm)), dtype=np.float64)
     if not np.all(np.isfinite(E)):  # a bug, not a user error: receivers inside were removed
         raise RuntimeError(f"irradiance is not finite at a receiver of light {i}")
     dtype = np.asarray(jnp.zeros(())).dtype
-    ds = Dataset(
+    return Dataset(
         em,
         pts.astype(dtype),
         nrm.astype(dtype),
@@ -248,6 +268,24 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
             "light": i,
         },
     )
+
+
+def light_truth(scene: Scene, i: int) -> LightTruth:
+    """The exact irradiance of light `i` (sphere, disk, capsule, spot, rectangle or tube: its
+    `SceneLight.emitter()`) at the scene's receivers, and which of them are judged."""
+    light = scene.lights[i]
+    em = light.emitter()
+    pts, nrm, src = _receivers_of(scene, i, em)
+    d = _distance_to(em, pts)
+    far = float(np.max(d)) / float(light.radius)
+    if not far <= _MAX_D_OVER_R:
+        where = src[int(np.argmax(d))]
+        raise BadValueError(
+            f"{scene.source}: {where}: a receiver lies {far:.3g} radii from [[lights]][{i}] "
+            f"({float(np.max(d)):.3g} m), "
+            f"beyond the {_MAX_D_OVER_R:.0e} radii within which attenfit judges a curve"
+        )
+    ds = _exact(scene, i, em, pts, nrm)
     if light.is_spot:
         c = np.asarray(light.position, dtype=np.float64)
         dirs = pts - c
@@ -269,6 +307,7 @@ def light_truth(scene: Scene, i: int) -> LightTruth:
             f"{scene.source}: [[lights]][{i}]: no receiver lies {why}: there is nothing to judge "
             "a curve on (aim the light at a receiver, or add receivers it reaches)"
         )
+    E = np.asarray(ds.E, dtype=np.float64)
     unlit = int(np.sum(within & ~(weight > 0) & (E * profile > 0)))
     return LightTruth(
         light=i,

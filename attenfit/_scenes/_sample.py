@@ -92,7 +92,7 @@ def _reaches(
     keep &= (facing > 0) | flip
     if light.range is not None:
         keep &= dist <= light.range
-    if light.kind == "disk":
+    if light.kind in ("disk", "rect"):  # one-sided: its lit half-space
         axis = np.asarray(light.normal, dtype=np.float64)
         keep &= (pts - c) @ axis > 0
     elif light.kind == "spot":

@@ -15,7 +15,7 @@ import numpy as np
 from .._curves import list_families
 from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._input import LIMITS, load_toml, read_text
-from .._truth import DiskEmitter
+from .._truth import DiskEmitter, RectEmitter
 from ._lighting import inside_light
 from ._types import (
     LIGHT_EXTRA,
@@ -45,16 +45,19 @@ SCENE_KEYS: dict[str, dict[str, str]] = {
         "families": "optional list of family names; only these are candidates (default: every registered family)",
     },
     "[[lights]]": {
-        "kind": "required; sphere | disk | capsule | spot",
-        "radius": "required; the emitter's radius (m), > 0",
+        "kind": "required; sphere | disk | capsule | spot | rect | tube",
+        "radius": "required (not for rect); the emitter's radius (m), > 0",
         "position": "[x, y, z] of the centre (m); give this or `height`",
         "height": "the centre's height above the floor z = 0 (m): the light sits at (0, 0, height)",
         "intensity": "optional, default 1; the point-equivalent intensity I (W/sr)",
         "range": "optional; the distance (m) beyond which the engine culls the light; receivers beyond it are not judged; windows reach 0 there",
-        "normal": "disk only, default [0, 0, -1]: the emitting side",
+        "normal": "disk and rect only, default [0, 0, -1]: the emitting side",
         "two_sided": "disk only, default false",
-        "length": "capsule only, required; the segment's length (m)",
-        "axis": "capsule only, default [1, 0, 0]: the segment's direction",
+        "size": "rect only, required; [width, height] (m), width along `tangent`, height along `normal` x `tangent`",
+        "tangent": "rect only, default [1, 0, 0]: the width's direction (its part in the rectangle's plane)",
+        "length": "capsule and tube only, required; the segment's length (m)",
+        "axis": "capsule and tube only, default [1, 0, 0]: the segment's direction",
+        "caps": "tube only, default false; whether its two end disks emit too (a UsdLux CylinderLight's do not)",
         "umbra": "spot only, required; the cone's half-angle in degrees, 0 < umbra <= 90",
         "penumbra": "spot only, required; the half-angle of full intensity in degrees, 0 <= penumbra <= umbra",
         "direction": "spot only, default [0, 0, -1]",
@@ -341,8 +344,14 @@ def _family_names(value: Any, w: _Where) -> tuple[str, ...]:
 
 def _parse_light(t: Mapping[str, Any], w: _Where) -> SceneLight:
     kind = _choice(_require(t, "kind", w, " | ".join(LIGHT_KINDS)), "kind", w, LIGHT_KINDS)
-    _check_keys(t, (*_LIGHT_COMMON, *LIGHT_EXTRA[kind]), w)
-    radius = _positive(_require(t, "radius", w, "the emitter's radius in m"), "radius", w)
+    common = tuple(k for k in _LIGHT_COMMON if not (kind == "rect" and k == "radius"))
+    _check_keys(t, (*common, *LIGHT_EXTRA[kind]), w)
+    size = None
+    if kind == "rect":
+        size = _rect_size(_require(t, "size", w, "[width, height] in m"), w)
+        radius = math.sqrt(size[0] * size[1] / math.pi)
+    else:
+        radius = _positive(_require(t, "radius", w, "the emitter's radius in m"), "radius", w)
     if "position" in t and "height" in t:
         raise BadValueError(w.table_msg("give either 'position' or 'height', not both"))
     if "position" in t:
@@ -366,12 +375,19 @@ def _parse_light(t: Mapping[str, Any], w: _Where) -> SceneLight:
             kw["normal"] = _vec3(t["normal"], "normal", w, nonzero=True)
         if "two_sided" in t:
             kw["two_sided"] = _boolean(t["two_sided"], "two_sided", w)
-    elif kind == "capsule":
+    elif kind == "rect":
+        kw["size"] = size
+        for key in ("normal", "tangent"):
+            if key in t:
+                kw[key] = _vec3(t[key], key, w, nonzero=True)
+    elif kind in ("capsule", "tube"):
         kw["length"] = _positive(
-            _require(t, "length", w, "the capsule's segment length in m"), "length", w
+            _require(t, "length", w, f"the {kind}'s segment length in m"), "length", w
         )
         if "axis" in t:
             kw["axis"] = _vec3(t["axis"], "axis", w, nonzero=True)
+        if "caps" in t:
+            kw["caps"] = _boolean(t["caps"], "caps", w)
     elif kind == "spot":
         umbra = _number(
             _require(t, "umbra", w, "the cone's half-angle in degrees"), "umbra", w,
@@ -395,7 +411,19 @@ def _parse_light(t: Mapping[str, Any], w: _Where) -> SceneLight:
             kw["shape"] = _choice(t["shape"], "shape", w, SPOT_SHAPES)
         if "profile" in t:
             kw["profile"] = _choice(t["profile"], "profile", w, SPOT_PROFILES)
-    return SceneLight(**kw)
+    light = SceneLight(**kw)
+    if kind == "rect":
+        try:
+            light.emitter()  # a tangent along the normal
+        except BadValueError as exc:
+            raise BadValueError(w.table_msg(str(exc))) from None
+    return light
+
+
+def _rect_size(value: Any, w: _Where) -> tuple[float, float]:
+    if not isinstance(value, list) or len(value) != 2:
+        raise w.type("size", f"must be [width, height] in m, got {_show(value)}")
+    return (_positive(value[0], "size[0]", w), _positive(value[1], "size[1]", w))
 
 
 def _parse_receivers(t: Mapping[str, Any], w: _Where) -> Receivers:
@@ -456,7 +484,7 @@ def _check_geometry(
     """Refuse receivers inside a solid light (points, distributions) before any work."""
     for i, light in enumerate(lights):
         em = light.emitter()
-        solid = not isinstance(em, DiskEmitter)
+        solid = not isinstance(em, DiskEmitter | RectEmitter)
         for j, rec in enumerate(receivers):
             where = f"[[receivers]][{j}]"
             if isinstance(rec, DistanceDistribution) and solid and rec.distance[0] <= light.radius:

@@ -13,11 +13,13 @@ from .._truth import (
     CapsuleEmitter,
     Dataset,
     DiskEmitter,
+    RectEmitter,
     SphereEmitter,
+    TubeEmitter,
 )
 
 #: Light kinds of a scene file.
-LIGHT_KINDS = ("sphere", "disk", "capsule", "spot")
+LIGHT_KINDS = ("sphere", "disk", "capsule", "spot", "rect", "tube")
 #: Receiver kinds of a scene file.
 RECEIVER_KINDS = ("plane", "points", "distribution")
 #: True angular profiles of a spot (see the module docstring).
@@ -30,13 +32,21 @@ LIGHT_EXTRA = {
     "disk": ("normal", "two_sided"),
     "capsule": ("length", "axis"),
     "spot": ("umbra", "penumbra", "direction", "shape", "profile"),
+    "rect": ("normal", "tangent", "size"),
+    "tube": ("length", "axis", "caps"),
 }
 
 
 # ----------------------------------------------------------------------------- the objects
 @dataclasses.dataclass(frozen=True)
 class SceneLight:
-    """One light of a scene (validated; lengths in m, angles in degrees as in the file)."""
+    """One light of a scene (validated; lengths in m, angles in degrees as in the file).
+
+    A rectangle (`kind` "rect") is `size` = (width along `tangent`, height along `normal x
+    tangent`), emitting along `normal`; its `radius` is the equal-area disk's,
+    `sqrt(w h / pi)` (as `RectEmitter.radius`). A tube is `length` along `axis` around
+    `position`, of `radius`, with its end disks if `caps`.
+    """
 
     kind: str
     radius: float
@@ -52,6 +62,9 @@ class SceneLight:
     direction: tuple[float, float, float] = (0.0, 0.0, -1.0)
     shape: str = "sphere"
     profile: str = "aperture"
+    tangent: tuple[float, float, float] = (1.0, 0.0, 0.0)
+    size: tuple[float, float] | None = None
+    caps: bool = False
 
     @property
     def umbra_rad(self) -> float | None:
@@ -76,12 +89,15 @@ class SceneLight:
             return DiskEmitter(c, list(self.normal), self.radius, self.intensity, self.two_sided)
         if self.kind == "spot":
             return DiskEmitter(c, list(self.direction), self.radius, self.intensity)
+        if self.kind == "rect":
+            w, h = self.size or (2 * self.radius, 2 * self.radius)
+            return RectEmitter(c, list(self.normal), list(self.tangent), w, h, self.intensity)
         axis = np.asarray(self.axis, dtype=np.float64)
         half = 0.5 * float(self.length) * axis / np.linalg.norm(axis)
-        centre = np.asarray(c)
-        return CapsuleEmitter(
-            (centre - half).tolist(), (centre + half).tolist(), self.radius, self.intensity
-        )
+        a, b = (np.asarray(c) - half).tolist(), (np.asarray(c) + half).tolist()
+        if self.kind == "tube":
+            return TubeEmitter(a, b, self.radius, self.intensity, self.caps)
+        return CapsuleEmitter(a, b, self.radius, self.intensity)
 
     def to_dict(self) -> dict[str, Any]:
         """The keys as a scene file would write them (defaults of other kinds left out)."""
@@ -91,6 +107,8 @@ class SceneLight:
             "position": list(self.position),
             "intensity": self.intensity,
         }
+        if self.kind == "rect":  # its radius is the equal-area disk's, from its size
+            del out["radius"]
         if self.range is not None:
             out["range"] = self.range
         for key in LIGHT_EXTRA[self.kind]:

@@ -16,8 +16,10 @@ Lights (UsdLux, https://openusd.org/release/api/usd_lux_page_front.html):
   and `l_spot_blend = (1 - cos(angle)) blend` from `eevee_lights.c`, ramps smoothstep over
   `cos` from `cos(angle)` to `cos(angle) + (1 - cos(angle)) * blend`): penumbra =
   `acos(cos u + (1 - cos u) softness)`, profile "threejs" (smoothstep in cos).
-* Rect, dome, cylinder, distant, geometry and portal lights are not modelled: skipped with a
-  notice, or refused with `strict`. So is a light whose `inputs:shaping:focus` is not 0
+* `RectLight` and `CylinderLight`: a one-sided rectangle and a tube (kinds "rect", "tube";
+  `_usd_area`).
+* Dome, distant, geometry and portal lights are not modelled: skipped with a notice, or
+  refused with `strict`. So is a light whose `inputs:shaping:focus` is not 0
   (usdLux/schema.usda: "Implemented as an off-axis cosine power exponent. TODO: clarify
   semantics", no formula to model) or whose `inputs:shaping:ies:file` names a file.
 
@@ -57,13 +59,14 @@ import numpy as np
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from ._sample import Mesh
 from ._types import SceneLight
+from ._usd_area import AREA_TYPES, area_light
 from ._usd_attrs import UsdTime, check_time, light_input, prim_errors, show, world_matrix
 from ._usd_layers import MAX_PRIMS, USD_SUFFIXES, UsdLayers, pxr_error, usd_diagnostics, usd_layers
 from ._usd_mesh import check_mesh_memory, read_mesh
 
 __all__ = ["USD_SUFFIXES", "UsdLight", "read_usd"]
 
-_UNSUPPORTED = ("RectLight", "DomeLight", "CylinderLight", "DistantLight", "GeometryLight", "PortalLight")  # fmt: skip
+_UNSUPPORTED = ("DomeLight", "DistantLight", "GeometryLight", "PortalLight")
 
 
 def _pxr():
@@ -147,6 +150,10 @@ def _read(path, label, radius_for, strict, notice, time) -> tuple[list[UsdLight]
             if type_name in ("SphereLight", "DiskLight"):
                 m = world_matrix(prim, when, cache)
                 lights.append(_light(prim, type_name, m, mpu, where, radius_for, when, notice))
+            elif type_name in AREA_TYPES:  # `_usd_area`
+                m, read = world_matrix(prim, when, cache), _readers(prim, when)
+                got = area_light(prim, type_name, m, mpu, where, _pxr()[2], read, strict, notice)
+                lights.extend(UsdLight(name, light, kind, None) for light, kind in got)
             else:
                 with np.errstate(over="ignore", invalid="ignore"):
                     meshes.append(read_mesh(prim, when, cache, mpu, label))
@@ -171,7 +178,7 @@ def _found(stage, label: str, when: UsdTime, notice) -> list[tuple[Any, str]]:
                 f"at most {MAX_PRIMS:,}"
             )
         type_name = prim.GetTypeName()
-        if type_name not in (*_UNSUPPORTED, "SphereLight", "DiskLight", "Mesh"):
+        if type_name not in (*_UNSUPPORTED, *AREA_TYPES, "SphereLight", "DiskLight", "Mesh"):
             continue
         where = f"{label}: {type_name} {prim.GetPath()}"
         with prim_errors(where):
@@ -212,7 +219,7 @@ def _not_modelled(prim, type_name: str, when: UsdTime, where: str) -> str | None
     model) when not 0, and `inputs:shaping:ies:file` (a photometric profile in another
     file, which attenfit never reads) when it names a file."""
     if type_name in _UNSUPPORTED:
-        return "not modelled (attenfit takes sphere, disk and spot lights)"
+        return "not modelled (attenfit takes sphere, disk, spot, rect and cylinder lights)"
     from pxr import UsdLux
 
     if not prim.HasAPI(UsdLux.ShapingAPI):
@@ -273,6 +280,16 @@ def _number(attr, default: float, where: str, when: UsdTime) -> float:
     if not math.isfinite(v):
         raise BadValueError(f"{where}: {attr.GetName()} must be finite, got {v!r}")
     return float(v)
+
+
+def _readers(prim, when: UsdTime):
+    """`_usd_area`'s attribute readers `number(attr, default, where)` and `flag(attr, where)`:
+    `_number` and `_flag` at `when`, pre-2021 input names included."""
+    olds: list[str] = []
+    return (
+        lambda attr, default, where: _number(light_input(prim, attr, olds), default, where, when),
+        lambda attr, where: _flag(light_input(prim, attr, olds), where, when),
+    )
 
 
 def _flag(attr, where: str, when: UsdTime) -> bool:

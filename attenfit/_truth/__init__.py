@@ -20,3 +20,4 @@ from ._geometry import area_inputs as area_inputs
 from ._geometry import area_irradiance as area_irradiance
 from ._irradiance import irradiance as irradiance
 from ._rect import RectEmitter as RectEmitter
+from ._tube import TubeEmitter as TubeEmitter

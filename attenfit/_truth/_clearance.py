@@ -34,6 +34,7 @@ import numpy as np
 
 from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter
 from ._rect import RectEmitter
+from ._tube import TubeEmitter
 
 __all__ = [
     "CLEARANCE",
@@ -65,7 +66,7 @@ def ray_offset(points: np.ndarray) -> np.ndarray:
 def _light_extent(emitter: AbstractEmitter) -> float:
     """The largest coordinate of any point of the light (its bounding box's)."""
     r = float(np.asarray(emitter.radius))
-    if isinstance(emitter, CapsuleEmitter):
+    if isinstance(emitter, CapsuleEmitter | TubeEmitter):
         ends = np.abs(np.stack([np.asarray(emitter.a), np.asarray(emitter.b)], dtype=np.float64))
         return float(ends.max()) + r
     if isinstance(emitter, RectEmitter):
@@ -82,8 +83,8 @@ def scene_scale(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:
 def surface_distance(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:
     """Distance (m) from each receiver (n, 3) to the light's surface (n,); 0 inside a solid light.
 
-    Sphere: `|p - c| - r`; capsule: distance to the segment minus r; disk and rectangle:
-    distance to the nearest point of the (closed) shape.
+    Sphere: `|p - c| - r`; capsule: distance to the segment minus r; disk, rectangle and
+    tube (as a solid cylinder): distance to the nearest point of the (closed) shape.
     """
     p = np.asarray(points, dtype=np.float64)
     r = float(np.asarray(emitter.radius))
@@ -96,6 +97,14 @@ def surface_distance(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray
             - float(emitter.height) / 2
         )
         return np.hypot(z, np.hypot(np.maximum(s, 0.0), np.maximum(t, 0.0)))
+    if isinstance(emitter, TubeEmitter):  # the solid cylinder's
+        a = np.asarray(emitter.a, dtype=np.float64)
+        ab = np.asarray(emitter.b, dtype=np.float64) - a
+        ell = float(np.linalg.norm(ab))
+        z = (p - a) @ (ab / ell)
+        rho = np.linalg.norm((p - a) - z[:, None] * (ab / ell), axis=1)
+        dz = np.maximum(np.maximum(-z, z - ell), 0.0)
+        return np.hypot(np.maximum(rho - r, 0.0), dz)
     if isinstance(emitter, DiskEmitter):
         c = np.asarray(emitter.center, dtype=np.float64)
         m = np.asarray(emitter.normal, dtype=np.float64)

@@ -27,7 +27,7 @@ from .._budget import budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from .._input import load_json, read_npz
 from .._version import __version__
-from ._clearance import CLEARANCE, scene_scale, too_close
+from ._clearance import CLEARANCE, scene_scale, surface_distance, too_close
 from ._emitters import (
     AbstractEmitter,
     CapsuleEmitter,
@@ -37,6 +37,7 @@ from ._emitters import (
 )
 from ._irradiance import irradiance
 from ._rect import RectEmitter
+from ._tube import TubeEmitter
 
 __all__ = [
     "FORMAT",
@@ -288,6 +289,8 @@ def _dtype(dtype: Any) -> np.dtype:
 
 #: The flat emitters: no inside, receivers along their normal, on their lit side.
 FLAT = (DiskEmitter, RectEmitter)
+#: The emitters around a segment `a -> b`: receivers beside it, distances from it.
+SEGMENT = (CapsuleEmitter, TubeEmitter)
 
 
 def _solid_radius(emitter: AbstractEmitter) -> float:
@@ -491,6 +494,8 @@ def _inside(emitter: AbstractEmitter, pts: np.ndarray, margin: float = 1e-9) -> 
     if isinstance(emitter, FLAT):
         return np.zeros(len(pts), dtype=bool)
     r = float(emitter.radius)
+    if isinstance(emitter, TubeEmitter):
+        return surface_distance(emitter, pts) <= r * margin
     if isinstance(emitter, SphereEmitter):
         dist = np.linalg.norm(pts - np.asarray(emitter.center, dtype=np.float64), axis=1)
     else:
@@ -498,7 +503,7 @@ def _inside(emitter: AbstractEmitter, pts: np.ndarray, margin: float = 1e-9) -> 
     return dist <= r * (1 + margin)
 
 
-def _segment_distance(emitter: CapsuleEmitter, pts: np.ndarray) -> np.ndarray:
+def _segment_distance(emitter: CapsuleEmitter | TubeEmitter, pts: np.ndarray) -> np.ndarray:
     a = np.asarray(emitter.a, dtype=np.float64)
     ab = np.asarray(emitter.b, dtype=np.float64) - a
     den = float(ab @ ab)
@@ -550,7 +555,7 @@ def random_receivers(
     while have < n:
         k = 2 * (n - have) + 8
         d = np.exp(rng.uniform(math.log(d_min), math.log(d_max), size=k))
-        if isinstance(emitter, CapsuleEmitter):
+        if isinstance(emitter, SEGMENT):
             a = np.asarray(emitter.a, dtype=np.float64)
             b = np.asarray(emitter.b, dtype=np.float64)
             base = a + rng.uniform(0, 1, size=(k, 1)) * (b - a)
@@ -558,18 +563,17 @@ def random_receivers(
             base = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), (k, 3))
         p = base + d[:, None] * unit(k)
         ok = ~_inside(emitter, p, margin=1e-6) & ~too_close(emitter, p)
-        if isinstance(emitter, CapsuleEmitter):
+        if isinstance(emitter, SEGMENT):
             ok &= _segment_distance(emitter, p) >= d_min
         pts_list.append(p[ok])
         have += int(ok.sum())
     pts = np.concatenate(pts_list)[:n]
     # normals
-    dp, _ = emitter.point_light(pts, np.broadcast_to([0.0, 0.0, 1.0], pts.shape))
-    dp = np.asarray(dp, dtype=np.float64)
-    if isinstance(emitter, CapsuleEmitter):
+    if isinstance(emitter, SEGMENT):
         target = np.asarray(emitter.closest_point(pts), dtype=np.float64)
     else:
         target = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), pts.shape)
+    dp = np.linalg.norm(target - pts, axis=1)
     l = (target - pts) / dp[:, None]
     if isinstance(emitter, FLAT):
         sin_a = np.sin(np.arctan(r / dp))

@@ -26,6 +26,7 @@ from ._emitters import (
     _safe_norm,
 )
 from ._rect import RectEmitter
+from ._tube import TubeEmitter
 
 __all__ = ["area_inputs", "area_irradiance"]
 
@@ -42,7 +43,8 @@ def area_inputs(
     `cos_n = -n.m`, `g = max(0, cos_e)`; a two-sided disk is read from the face the receiver
     sees (`cos_e = |.|`, `m` flipped with it). Capsule: `d` and `l` to the closest point of
     its segment, `cos_e = 1`, `cos_n = cos_r`, `g` its projected-area factor
-    (`CapsuleEmitter.point_light`). A rectangle is read as a one-sided disk of its equal-area
+    (`CapsuleEmitter.point_light`); a tube as a capsule, with its own `g` (no end
+    hemispheres: `TubeEmitter.point_light`). A rectangle is read as a one-sided disk of its equal-area
     radius. A receiver at a disk's centre gets `d = 0` and cosines 0.
     """
     if not isinstance(emitter, AbstractEmitter):
@@ -51,7 +53,7 @@ def area_inputs(
     dt = p.dtype
     target = (
         emitter.closest_point(p)
-        if isinstance(emitter, CapsuleEmitter)
+        if isinstance(emitter, CapsuleEmitter | TubeEmitter)
         else _bcast(emitter.reference_point(), p)
     )
     dv = target - p
@@ -73,6 +75,9 @@ def area_inputs(
     ab = _bcast(emitter.b, p) - _bcast(emitter.a, p)
     sin_psi = _safe_norm(jnp.cross(dv / dsafe[..., None], ab))  # |b - a| sin(psi)
     g = 1 + 2 * sin_psi / (math.pi * r)
+    if isinstance(emitter, TubeEmitter):  # its side (and caps): `TubeEmitter.point_light`'s g
+        cos_psi = jnp.abs(_dot(dv / dsafe[..., None], ab)) / _safe_norm(ab)
+        g = 2 * sin_psi / (math.pi * r) + (cos_psi if emitter.caps else 0 * cos_psi)
     return AreaInputs(d, cos_r, one, r, cos_r, g)
 
 
