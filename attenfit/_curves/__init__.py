@@ -38,6 +38,9 @@ from ._windowed import UnrealExponent as UnrealExponent
 from ._windowed import UnrealWindow as UnrealWindow
 from ._spline import Spline as Spline
 from ._area import AREA_INPUTS as AREA_INPUTS
+from ._area import INPUT_RANGES as INPUT_RANGES
+from ._area import RECT_INPUTS as RECT_INPUTS
+from ._area import TUBE_INPUTS as TUBE_INPUTS
 from ._area import AreaInputs as AreaInputs
 from ._area import AreaModel as AreaModel
 from ._area import PointLight as PointLight
@@ -54,6 +57,13 @@ from ._area_models import GodotWrap as GodotWrap
 from ._area_models import HdrpSphere as HdrpSphere
 from ._area_models import MrpSphere as MrpSphere
 from ._clipped_disk import ClippedDisk as ClippedDisk
+from ._rect_models import ClippedRect as ClippedRect
+from ._rect_models import FrostbiteRect as FrostbiteRect
+from ._rect_models import RectModel as RectModel
+from ._rect_models import ThreeRect as ThreeRect
+from ._tube_models import FrostbiteTube as FrostbiteTube
+from ._tube_models import KarisTube as KarisTube
+from ._tube_models import TubeModel as TubeModel
 from ._directional import MIN_COS_WIDTH as MIN_COS_WIDTH
 from ._directional import SPOT_FALLOFFS as SPOT_FALLOFFS
 from ._directional import SpotFalloff as SpotFalloff

@@ -44,6 +44,8 @@ from ._softened import InverseSquare
 
 __all__ = [
     "AREA_INPUTS",
+    "RECT_INPUTS",
+    "TUBE_INPUTS",
     "AreaInputs",
     "AreaModel",
     "PointLight",
@@ -54,8 +56,23 @@ __all__ = [
     "register_area_model",
 ]
 
-#: The inputs of every area model, in the order `AreaInputs` holds them.
+#: The inputs of the sphere, disk and point-light models, in the order `AreaInputs` holds
+#: them (the default `AreaModel.input_names`).
 AREA_INPUTS = ("d", "cos_r", "cos_e", "r", "cos_n", "g")
+#: The inputs of a rectangle's models: the receiver's point (x, y, z) and unit normal
+#: (nx, ny, nz) in the light's frame (its centre the origin, x along its width, z its normal,
+#: y = z cross x), and its half width `hw` and half height `hh`
+#: (`attenfit._truth.model_inputs`).
+RECT_INPUTS = ("x", "y", "z", "nx", "ny", "nz", "hw", "hh")
+#: The inputs of a tube's models: the receiver's point and unit normal in the tube's frame
+#: (its centre the origin, x along its axis), its half length `hl` and its radius `r`.
+TUBE_INPUTS = ("x", "y", "z", "nx", "ny", "nz", "hl", "r")
+#: The range check of each input (`attenfit._fit` refuses inputs outside it), by name.
+INPUT_RANGES: dict[str, str] = {
+    "d": "nonnegative", "cos_r": "cosine", "cos_e": "cosine", "r": "positive",
+    "cos_n": "cosine", "g": "nonnegative", "nx": "cosine", "ny": "cosine", "nz": "cosine",
+    "hw": "positive", "hh": "positive", "hl": "positive",
+}  # fmt: skip
 
 Real = Float[Array, "*shape"]
 
@@ -169,30 +186,48 @@ class AreaModel(Model):
     """
 
     kind = "area model"
+    #: The per-receiver inputs it reads, in order (`AREA_INPUTS`, `RECT_INPUTS`,
+    #: `TUBE_INPUTS`): the rows of `evaluate`'s stacked inputs and `irradiance`'s arguments.
+    input_names: ClassVar[tuple[str, ...]] = AREA_INPUTS
     inputs = len(AREA_INPUTS)
+    #: The per-receiver inputs of its shader form (`_forms.area_form`), and the light's size
+    #: as the form's parameters, each with the input it reads (`radius`: `r`).
+    form_inputs: ClassVar[tuple[str, ...]] = AREA_FORM_INPUTS
+    form_sizes: ClassVar[dict[str, str]] = {"radius": "r"}
     described = ("light", "exact")
 
     #: The lights it is written for: "sphere" (spheres, and capsules at their closest point
-    #: times `g`), "disk", or "any".
+    #: times `g`), "disk", "rect", "tube", or "any".
     light: ClassVar[str] = "sphere"
     #: Where it is exact, in words ("" where nowhere).
     exact: ClassVar[str] = ""
 
     @abc.abstractmethod
-    def irradiance(self, d: Real, cos_r: Real, cos_e: Real, r: Real, cos_n: Real, g: Real) -> Real:
-        """`E / I` from inputs of one dtype and shape (called by `__call__`)."""
+    def irradiance(self, *x: Real) -> Real:
+        """`E / I` from inputs of one dtype and shape, one per `input_names` (called by
+        `__call__`; `AREA_INPUTS`: `d, cos_r, cos_e, r, cos_n, g`)."""
 
     def __call__(
         self,
-        d: Float[ArrayLike, "*shape"],
-        cos_r: Float[ArrayLike, "*shape"],
-        cos_e: Float[ArrayLike, "*shape"],
-        r: Float[ArrayLike, "*shape"],
+        *x: Float[ArrayLike, "*shape"] | None,
         cos_n: Float[ArrayLike, "*shape"] | None = None,
         g: Float[ArrayLike, "*shape"] | None = None,
     ) -> Float[Array, "*shape"]:
-        """`E / I` at receivers with this geometry (1/length^2)."""
-        d, cos_r, cos_e, r = parts.promote(d, cos_r, cos_e, r)
+        """`E / I` at receivers with this geometry (1/length^2): one array per `input_names`
+        (`AREA_INPUTS`: `d, cos_r, cos_e, r, cos_n=None, g=None`, see the class docstring)."""
+        names = type(self).input_names
+        if names != AREA_INPUTS:
+            if len(x) != len(names) or any(v is None for v in x):
+                raise BadValueError(
+                    f"area model {self.name!r} reads {len(names)} inputs ({', '.join(names)}), "
+                    f"got {len(x)}"
+                )
+            return _evaluate(self, *parts.promote(*x))
+        if not 4 <= len(x) <= 6:
+            raise BadValueError(f"area model {self.name!r} reads d, cos_r, cos_e, r[, cos_n, g]")
+        d, cos_r, cos_e, r = parts.promote(*x[:4])
+        cos_n = x[4] if len(x) > 4 else cos_n
+        g = x[5] if len(x) > 5 else g
         if cos_n is None:
             sin_r = safe_sqrt((1 - cos_r) * (1 + cos_r))
             sin_e = safe_sqrt((1 - cos_e) * (1 + cos_e))
@@ -201,14 +236,17 @@ class AreaModel(Model):
             g = jnp.maximum(cos_e, 0)
         return _evaluate(self, d, cos_r, cos_e, r, jnp.asarray(cos_n), jnp.asarray(g))
 
-    def evaluate(self, x: Float[ArrayLike, " 6 *shape"]) -> Float[Array, "*shape"]:
-        """`E / I` from the stacked inputs (`AreaInputs.stack()`), rows in `AREA_INPUTS` order."""
+    def evaluate(self, x: Float[ArrayLike, " k *shape"]) -> Float[Array, "*shape"]:
+        """`E / I` from the stacked inputs (`AreaInputs.stack()`), rows in `input_names` order."""
         x = jnp.asarray(x)
-        return self(x[0], x[1], x[2], x[3], x[4], x[5])
+        return self(*(x[k] for k in range(len(type(self).input_names))))
 
 
-def _call(model: AreaModel, d, cos_r, cos_e, r, cos_n, g):
-    d, cos_r, cos_e, r, cos_n, g = parts.promote(d, cos_r, cos_e, r, cos_n, g)
+def _call(model: AreaModel, *x):
+    if type(model).input_names != AREA_INPUTS:  # a frame's inputs: the model clamps them
+        xs = jnp.broadcast_arrays(*parts.promote(*x))
+        return parts.keep_nan(xs[0], model.irradiance(*xs).astype(xs[0].dtype))
+    d, cos_r, cos_e, r, cos_n, g = parts.promote(*x)
     d, cos_r, cos_e, r, cos_n, g = jnp.broadcast_arrays(d, cos_r, cos_e, r, cos_n, g)
     out = model.irradiance(parts.distance(d), jnp.clip(cos_r, -1, 1), jnp.clip(cos_e, -1, 1), r,
                            jnp.clip(cos_n, -1, 1), g)  # fmt: skip
@@ -237,8 +275,10 @@ def register_area_model(cls: type[AreaModel]) -> type[AreaModel]:
     if name in _REGISTRY and _REGISTRY[name] is not cls:
         raise BadValueError(f"an area model named {name!r} is registered already")
     cls.check_class()
-    if cls.light not in ("sphere", "disk", "any"):
-        raise BadValueError(f"area model {name!r}: light must be sphere, disk or any")
+    if cls.light not in ("sphere", "disk", "rect", "tube", "any"):
+        raise BadValueError(f"area model {name!r}: light must be sphere, disk, rect, tube or any")
+    if cls.inputs != len(cls.input_names):
+        raise BadValueError(f"area model {name!r}: inputs must be len(input_names)")
     cls()  # constructs with no arguments
     _REGISTRY[name] = cls
     return cls

@@ -58,15 +58,16 @@ def distance_form(
 def area_form(
     model: Any, build: Callable[..., Expr], source: str, *, engine: bool, note: str = ""
 ) -> ShaderForm:
-    """The form `build(let, x, p) -> result` of an area model: `x` maps each input of
-    `AREA_FORM_INPUTS` to its `Ref`, `p` each parameter and `radius` (the light's radius)."""
-    params = (*model.param_names(), "radius")
+    """The form `build(let, x, p) -> result` of an area model: `x` maps each of the model's
+    `form_inputs` (default `AREA_FORM_INPUTS`) to its `Ref`, `p` each parameter and the
+    light's size (`form_sizes`: `radius`; a rectangle's `half_width`, `half_height`)."""
+    cls = type(model)
+    inputs = tuple(getattr(cls, "form_inputs", AREA_FORM_INPUTS))
+    params = (*model.param_names(), *getattr(cls, "form_sizes", {"radius": "r"}))
     let = Lets()
-    x = {k: Ref(k, "d") for k in AREA_FORM_INPUTS}
+    x = {k: Ref(k, "d") for k in inputs}
     result = build(let, x, {k: Ref(k, "param") for k in params})
-    return ShaderForm(
-        model.name, params, tuple(let.items), result, source, engine, note, AREA_FORM_INPUTS
-    )
+    return ShaderForm(model.name, params, tuple(let.items), result, source, engine, note, inputs)
 
 
 def shader(source: str, *, engine: bool, note: str = ""):

@@ -56,7 +56,7 @@ __all__ = ["fit", "fit_dataset", "fit_many"]
 def _prepare(model, d, target, weights, free, loss, solver, max_steps, rtol, atol, batched):
     ndim = 2 if batched else 1
     spec, values = spec_of(model, batched)
-    d, target, weights = validate_data(d, target, weights, loss, ndim, spec.inputs)
+    d, target, weights = validate_data(d, target, weights, loss, ndim, spec.input_names)
     batch = target.shape[0] if batched else None
     shapes = tuple(
         v.shape[1:] if batched and v.ndim >= 1 and v.shape[0] == batch else v.shape

@@ -1,10 +1,11 @@
-"""Fitting area-light models: their inputs checked (the fit's `d` is the stacked `AreaInputs`,
-one row per input, `AreaModel.inputs`), and `fit_dataset` for them.
+"""Fitting area-light models: their inputs checked (the fit's `d` is the stacked inputs, one
+row per input the model's class names, `AreaModel.input_names`), and `fit_dataset` for them.
 
 An area model's samples are receivers, not distances: `fit(model, x, target)` takes
 `x = attenfit.area_inputs(...)` (or its `stack()`, shape `(6, n)`; `(batch, 6, n)` for
-`fit_many`) and `target = E / I`. The solve is the families' (`_problem`): only the model
-evaluation reads the six rows.
+`fit_many`; a rectangle's or a tube's models: `model_inputs(...)`, 8 rows) and
+`target = E / I`. The solve is the families' (`_problem`): only the model evaluation reads
+the rows.
 """
 
 from __future__ import annotations
@@ -14,20 +15,26 @@ from typing import Any
 import jax
 import numpy as np
 
-from .._curves import AREA_INPUTS, AreaInputs, AreaModel
+from .._curves import AREA_INPUTS, INPUT_RANGES, AreaInputs, AreaModel
 from .._errors import BadTypeError, BadValueError
-from .._truth import area_inputs
+from .._truth import model_inputs
 
 __all__ = ["dataset_problem", "stack_inputs"]
 
-#: Rows of an area model's `d`.
-ROWS = len(AREA_INPUTS)
+_RANGE_OK = {
+    "nonnegative": lambda v: v >= 0,
+    "positive": lambda v: v > 0,
+    "cosine": lambda v: np.abs(v) <= 1,
+}
 
 
-def stack_inputs(x: Any, ndim: int) -> np.ndarray:
-    """The inputs of an area model as a float array `(6, n)` (`ndim` 1) or `(batch, 6, n)`,
-    checked: finite, `d >= 0`, cosines in [-1, 1], `r > 0`, `g >= 0`."""
-    if isinstance(x, AreaInputs):
+def stack_inputs(x: Any, ndim: int, names: tuple[str, ...] = AREA_INPUTS) -> np.ndarray:
+    """The inputs `names` of an area model (its class's `input_names`) as a float array
+    `(k, n)` (`ndim` 1) or `(batch, k, n)`, checked: finite, and each in its range
+    (`INPUT_RANGES`: `d >= 0`, cosines and normal components in [-1, 1], sizes > 0,
+    `g >= 0`)."""
+    rows_n = len(names)
+    if isinstance(x, AreaInputs | tuple):
         x = np.stack(np.broadcast_arrays(*(np.asarray(v) for v in x)))
     try:
         arr = np.asarray(x)
@@ -40,25 +47,19 @@ def stack_inputs(x: Any, ndim: int) -> np.ndarray:
     if arr.dtype.kind != "f":
         raise BadTypeError(f"an area model's inputs must be floats, got dtype {arr.dtype}")
     axis = arr.ndim - 2
-    if arr.ndim not in (2, 3) or arr.shape[axis] != ROWS or (ndim == 1 and arr.ndim != 2):
+    if arr.ndim not in (2, 3) or arr.shape[axis] != rows_n or (ndim == 1 and arr.ndim != 2):
         raise BadValueError(
-            f"an area model's inputs must be attenfit.area_inputs(...) or an array ({ROWS}, n)"
-            f"{' or (batch, 6, n)' if ndim == 2 else ''}, got shape {arr.shape}"
+            f"an area model's inputs must be attenfit.area_inputs(...) or an array ({rows_n}, n)"
+            f"{f' or (batch, {rows_n}, n)' if ndim == 2 else ''}, got shape {arr.shape}"
         )
     rows = np.moveaxis(arr, axis, 0)
     if not np.all(np.isfinite(arr)):
         raise BadValueError("an area model's inputs must be finite")
-    checks = {
-        "d": rows[0] >= 0,
-        "cos_r": np.abs(rows[1]) <= 1,
-        "cos_e": np.abs(rows[2]) <= 1,
-        "r": rows[3] > 0,
-        "cos_n": np.abs(rows[4]) <= 1,
-        "g": rows[5] >= 0,
-    }
-    for name, ok in checks.items():
+    for k, name in enumerate(names):
+        test = _RANGE_OK.get(INPUT_RANGES.get(name, ""))
+        ok = np.ones(rows[k].shape, bool) if test is None else test(rows[k])
         if not ok.all():
-            bad = np.asarray(rows[AREA_INPUTS.index(name)])[~ok].flat[0].item()
+            bad = np.asarray(rows[k])[~ok].flat[0].item()
             raise BadValueError(f"area model input {name} out of range: {bad!r}")
     return arr
 
@@ -81,7 +82,7 @@ def dataset_problem(
         raise BadTypeError(
             f"dataset must be an attenfit.Dataset, got {type(dataset).__name__}"
         ) from exc
-    x = area_inputs(emitter, points, normals)
+    x = model_inputs(model, emitter, points, normals)
     dt = np.asarray(dataset.E).dtype
     xs = np.stack([np.asarray(v, dtype=dt).reshape(-1) for v in x])
     intensity = float(emitter.intensity)

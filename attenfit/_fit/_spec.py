@@ -45,6 +45,8 @@ class Spec:
     leaves_are_params: bool = False
     #: rows of `d` (an area model's inputs, `_area`); 0: `d` is a vector of distances
     inputs: int = 0
+    #: their names (`AreaModel.input_names`); () for a family
+    input_names: tuple[str, ...] = ()
     #: `1/f` linear in some parameters (`Model.inverse_linear`): the linear start
     inverse_linear: Any = dataclasses.field(default=None, compare=False)
 
@@ -91,6 +93,7 @@ def _new_model_spec(model: Model, treedef: Any) -> Spec:
         range_param=cls.range_param,
         leaves_are_params=_leaves_are_params(model, names),
         inputs=cls.inputs,
+        input_names=tuple(getattr(cls, "input_names", ())) if cls.inputs else (),
         inverse_linear=cls.inverse_linear,
     )
     return spec

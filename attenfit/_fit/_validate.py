@@ -36,19 +36,20 @@ def float_array(name: str, x: Any) -> np.ndarray:
 
 
 def validate_data(
-    d: Any, target: Any, weights: Any, loss: str, ndim: int, rows: int = 0
+    d: Any, target: Any, weights: Any, loss: str, ndim: int, rows: tuple[str, ...] = ()
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-    """`d`, `target` and `weights` checked; `rows`: an area model's inputs (`_area`) as `d`."""
+    """`d`, `target` and `weights` checked; `rows`: the names of an area model's inputs
+    (`AreaModel.input_names`), whose stack is `d`."""
     if rows:
         from ._area_inputs import stack_inputs
 
-        x = stack_inputs(d, ndim)
+        x = stack_inputs(d, ndim, rows)
         shape = np.shape(target)
         if not shape or shape[-1] != x.shape[-1] or (x.ndim == 3 and shape[0] != x.shape[0]):
             raise BadValueError(
                 f"the inputs hold {x.shape[-1]} receivers, target has shape {shape}"
             )
-        _, target, weights = validate_data(x[..., 0, :], target, weights, loss, ndim)
+        _, target, weights = validate_data(np.zeros_like(x[..., 0, :]), target, weights, loss, ndim)
         return x, target, weights
     d = float_array("d", d)
     target = float_array("target", target)

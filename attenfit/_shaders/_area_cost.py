@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from .._curves import AREA_FORM_INPUTS, AreaModel
+from .._curves import AreaModel
 from .._errors import BadValueError
 from .._ir import ShaderForm, evaluate_form
 from ._compilers import CompiledCost, cost_method, generic_model, spirv_counts
@@ -35,10 +35,12 @@ def _form(model: AreaModel) -> ShaderForm:
     return form
 
 
-def baked_values(model: AreaModel, r: float) -> dict[str, float]:
-    """The form's parameter values with the radius `r` baked in (scalar parameters only)."""
+def baked_values(model: AreaModel, r: float | Mapping[str, float]) -> dict[str, float]:
+    """The form's parameter values with the light's size baked in (scalar parameters only):
+    `r` the radius, or each of the model's `form_sizes` by name (a number: all of them)."""
     out = {k: float(np.asarray(v)) for k, v in model.params().items() if np.ndim(v) == 0}
-    out.setdefault("radius", float(r))
+    for size in type(model).form_sizes:
+        out.setdefault(size, float(r[size] if isinstance(r, Mapping) else r))
     return out
 
 
@@ -52,11 +54,15 @@ def evaluate_area_form(
     inputs: Mapping[str, Any],
     dtype: Any = np.float32,
 ) -> np.ndarray:
-    """The form of `model` at `inputs` (a mapping with `AREA_FORM_INPUTS` and `r`), every
-    operation rounded to `dtype` (`_ir.evaluate_form`); `r` must be one value."""
-    r = float(np.asarray(inputs["r"]).reshape(-1)[0])
-    given = {k: inputs[k] for k in AREA_FORM_INPUTS}
-    return evaluate_form(_form(model), given, baked_values(model, r), dtype)
+    """The form of `model` at `inputs` (a mapping with the form's inputs, `AREA_FORM_INPUTS`
+    by default, and the light's size: `r`, or the inputs `form_sizes` names), every operation
+    rounded to `dtype` (`_ir.evaluate_form`); each size must be one value."""
+    form = _form(model)
+    sizes = {
+        p: float(np.asarray(inputs[k]).reshape(-1)[0]) for p, k in type(model).form_sizes.items()
+    }
+    given = {k: inputs[k] for k in form.inputs}
+    return evaluate_form(form, given, baked_values(model, sizes), dtype)
 
 
 #: A generic radius (no value a compiler folds away).
@@ -74,7 +80,7 @@ def area_compiled_cost(model: AreaModel) -> CompiledCost:
     fname = "attenfit_area"
     glsl = print_form(form, "glsl", fname, baked_values(m, _GENERIC_R), uniforms=False, header=())
     spirv = (
-        spirv_counts(glsl, fname, inputs=len(AREA_FORM_INPUTS))
+        spirv_counts(glsl, fname, inputs=len(form.inputs))
         if cost_method() == "spirv"
         else None
     )

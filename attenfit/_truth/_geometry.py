@@ -13,8 +13,8 @@ import math
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._curves import AreaInputs, AreaModel
-from .._errors import BadTypeError
+from .._curves import AREA_INPUTS, RECT_INPUTS, TUBE_INPUTS, AreaInputs, AreaModel
+from .._errors import BadTypeError, BadValueError
 from ._emitters import (
     AbstractEmitter,
     CapsuleEmitter,
@@ -28,7 +28,7 @@ from ._emitters import (
 from ._rect import RectEmitter
 from ._tube import TubeEmitter
 
-__all__ = ["area_inputs", "area_irradiance"]
+__all__ = ["area_inputs", "area_irradiance", "frame_inputs", "model_inputs"]
 
 
 def area_inputs(
@@ -81,14 +81,75 @@ def area_inputs(
     return AreaInputs(d, cos_r, one, r, cos_r, g)
 
 
+def frame_inputs(
+    emitter: RectEmitter | TubeEmitter,
+    points: Float[ArrayLike, "*b 3"],
+    normals: Float[ArrayLike, "*b 3"],
+) -> tuple[Array, ...]:
+    """The receivers in the light's frame (`RECT_INPUTS` or `TUBE_INPUTS` of
+    `attenfit._curves._area`): point x, y, z and unit normal nx, ny, nz, then the light's
+    size (a rectangle's half width and half height; a tube's half length and radius).
+
+    A rectangle's frame: its centre the origin, x its tangent (width), z its normal (the lit
+    side z > 0), y = z cross x. A tube's: its centre the origin, x along `a -> b`, y and z any
+    right-handed pair across it (its models are symmetric about the axis).
+    """
+    p, n = _receivers(points, normals)
+    dt = p.dtype
+    if isinstance(emitter, RectEmitter):
+        c, ex, ez = emitter.center, emitter.tangent, emitter.normal
+        sizes = (emitter.width / 2, emitter.height / 2)
+    elif isinstance(emitter, TubeEmitter):
+        c, ab = emitter.center, emitter.b - emitter.a
+        ex = ab / _safe_norm(ab)
+        trial = jnp.where(jnp.abs(ex[0]) < 0.9, jnp.array([1.0, 0, 0]), jnp.array([0, 1.0, 0]))
+        ez = jnp.cross(ex, trial.astype(ex.dtype))
+        ez = ez / _safe_norm(ez)
+        sizes = (emitter.length / 2, emitter.radius)
+    else:
+        raise BadTypeError(
+            f"frame inputs are for a RectEmitter or a TubeEmitter, got {type(emitter).__name__}"
+        )
+    rot = jnp.stack([ex, jnp.cross(ez, ex), ez]).astype(dt)  # rows: the frame's axes
+    q = (p - _bcast(c.astype(dt), p)) @ rot.T
+    m = n @ rot.T
+    shape = q.shape[:-1]
+    size = tuple(jnp.broadcast_to(jnp.asarray(v).astype(dt), shape) for v in sizes)
+    return (*(q[..., k] for k in range(3)), *(m[..., k] for k in range(3)), *size)
+
+
+def model_inputs(
+    model: AreaModel | type[AreaModel],
+    emitter: AbstractEmitter,
+    points: Float[ArrayLike, "*b 3"],
+    normals: Float[ArrayLike, "*b 3"],
+) -> tuple[Array, ...]:
+    """The inputs `model` reads (its class's `input_names`) at the receivers: `area_inputs`
+    for `AREA_INPUTS`, `frame_inputs` for a rectangle's or a tube's models (whose light
+    must be that shape)."""
+    cls = model if isinstance(model, type) else type(model)
+    names = cls.input_names
+    if names == AREA_INPUTS:
+        return area_inputs(emitter, points, normals)
+    want = {RECT_INPUTS: RectEmitter, TUBE_INPUTS: TubeEmitter}.get(names)
+    if want is None:
+        raise BadValueError(f"area model {cls.name!r} reads inputs {names} no light provides")
+    if not isinstance(emitter, want):
+        raise BadTypeError(
+            f"area model {cls.name!r} is written for a {want.__name__}, got "
+            f"{type(emitter).__name__}"
+        )
+    return frame_inputs(emitter, points, normals)
+
+
 def area_irradiance(
     model: AreaModel,
     emitter: AbstractEmitter,
     points: Float[ArrayLike, "*b 3"],
     normals: Float[ArrayLike, "*b 3"],
 ) -> Float[Array, "*b"]:
-    """The irradiance `model` predicts at the receivers: `I * model(area_inputs(...))`."""
+    """The irradiance `model` predicts at the receivers: `I * model(model_inputs(...))`."""
     if not isinstance(model, AreaModel):
         raise BadTypeError(f"model must be an attenfit area model, got {type(model).__name__}")
-    x = area_inputs(emitter, points, normals)
-    return jnp.asarray(emitter.intensity).astype(x.d.dtype) * model(*x)
+    x = model_inputs(model, emitter, points, normals)
+    return jnp.asarray(emitter.intensity).astype(x[0].dtype) * model(*x)
