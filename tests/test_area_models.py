@@ -24,8 +24,10 @@ import attenfit as af
 from attenfit import area
 
 R = 0.3
-ALL = [area.get_area_model(n)() for n in area.list_area_models()]
-IDS = area.list_area_models()
+#: the models of spheres, disks and the point light (rectangles and tubes: test_rect_models.py,
+#: test_tube_models.py)
+IDS = [n for n in area.list_area_models() if area.get_area_model(n).input_names == area.AREA_INPUTS]
+ALL = [area.get_area_model(n)() for n in IDS]
 
 
 # ----------------------------------------------------------------------------- transcriptions

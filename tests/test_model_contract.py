@@ -12,7 +12,7 @@ import pytest
 
 import attenfit as af
 from attenfit import area
-from attenfit._curves import CONSTRAINTS, Model, point_light_class
+from attenfit._curves import CONSTRAINTS, RECT_INPUTS, TUBE_INPUTS, Model, point_light_class
 
 FAMILIES = [af.get_family(n) for n in af.list_families()]
 AREA = [area.get_area_model(n) for n in area.list_area_models()]
@@ -81,7 +81,9 @@ def test_class_level_facts(cls):
     assert issubclass(cls, Model) and not inspect.isabstract(cls)
     assert cls.name.isidentifier() and cls.formula and cls.source
     assert cls.kind in ("family", "area model")
-    assert cls.inputs == (0 if issubclass(cls, af.Family) else len(area.AREA_INPUTS))
+    assert cls.inputs == (0 if issubclass(cls, af.Family) else len(cls.input_names))
+    if not issubclass(cls, af.Family):  # the sphere's, disk's and point light's, or a frame's
+        assert cls.input_names in (area.AREA_INPUTS, RECT_INPUTS, TUBE_INPUTS)
     names = cls.param_names()
     assert tuple(cls.defaults()) == names
     assert set(cls.default_free) <= set(names)
@@ -119,10 +121,15 @@ def test_evaluate_reads_the_inputs_the_class_declares(cls):
     if cls.inputs == 0:
         want = np.asarray(m(d))
         got = np.asarray(m.evaluate(d))
-    else:
+    elif cls.input_names == area.AREA_INPUTS:
         one = np.ones_like(d)
         want = np.asarray(m(d, one, one, 0.1 * one, one, one))
         got = np.asarray(m.evaluate(np.stack([d, one, one, 0.1 * one, one, one])))
+    else:  # a rectangle's or a tube's: receivers on its z axis, facing it
+        zero, one = np.zeros_like(d), np.ones_like(d)
+        rows = [zero, zero, d, zero, zero, -one, 0.2 * one, 0.1 * one]
+        want = np.asarray(m(*rows))
+        got = np.asarray(m.evaluate(np.stack(rows)))
     assert got.shape == d.shape
     np.testing.assert_array_equal(got, want)
 
@@ -181,5 +188,5 @@ def test_each_model_writes_its_own_shader_form(cls):
     if cls.inputs == 0:
         assert form.inputs == ("d",) and form.params == cls.param_names()
     else:
-        assert form.inputs == area.AREA_FORM_INPUTS
-        assert set(form.params) - {"radius"} == set(cls.param_names())
+        assert form.inputs == cls.form_inputs
+        assert set(form.params) - set(cls.form_sizes) == set(cls.param_names())

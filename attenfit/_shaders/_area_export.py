@@ -17,7 +17,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from .._curves import AREA_INPUTS, AreaModel, Model
+from .._curves import AreaModel, Model
 from .._errors import BadValueError
 from .._ir import Call, Expr, Ref, ShaderForm
 from .._version import __version__
@@ -34,6 +34,15 @@ AREA_INPUT_TEXT: Mapping[str, str] = {
     "r": "the light's radius; length (the unit of d)",
     "cos_n": "-n.m, the receiver's normal against a disk's axis (a sphere: cos_r); 1",
     "g": "the emitter factor (1 for a sphere, max(0, cos_e) for a one-sided disk); 1",
+    "x": "the receiver's x in the light's frame (its centre the origin; x: a rectangle's width, a tube's axis); length",
+    "y": "the receiver's y in the light's frame (a rectangle's height axis); length",
+    "z": "the receiver's z in the light's frame (a rectangle's normal: lit where z > 0); length",
+    "nx": "the receiver's unit normal in the light's frame, x; 1",
+    "ny": "the receiver's unit normal in the light's frame, y; 1",
+    "nz": "the receiver's unit normal in the light's frame, z; 1",
+    "hw": "the rectangle's half width; length",
+    "hh": "the rectangle's half height; length",
+    "hl": "the tube's half length; length",
 }
 
 
@@ -65,21 +74,23 @@ def area_source(
 
 
 def area_export_form(model: AreaModel) -> tuple[ShaderForm, dict[str, str]] | None:
-    """The form `export` prints: `model`'s shader form with the light's radius an input, the
-    six inputs in `AREA_INPUTS` order (`d, cos_r, cos_e, r, cos_n, g`, as `AreaModel.__call__`
-    takes them), and the names it renamed (a parameter or temporary named like an input,
+    """The form `export` prints: `model`'s shader form with the light's size an input (its
+    `form_sizes`: the radius `r`; a rectangle's `hw`, `hh`), the inputs in `input_names`
+    order (`d, cos_r, cos_e, r, cos_n, g`, as `AreaModel.__call__` takes them), and the names it renamed (a parameter or temporary named like an input,
     e.g. the family `r` of `PointLight(Yuksel())`, gets a `_param`/`_let` suffix), or None
     when the model has no shader form."""
     form = model.shader_form()
     if form is None:
         return None
+    names = type(model).input_names
     swap: dict[tuple[str, str], Ref] = {}
-    if "radius" in form.params and "radius" not in model.param_names():  # the light's radius
-        swap[("radius", "param")] = Ref("r", "d")
-    taken = set(AREA_INPUTS) | set(form.params) | {n for n, _ in form.lets}
+    for size, arg in type(model).form_sizes.items():  # the light's size: an input
+        if size in form.params and size not in model.param_names():
+            swap[(size, "param")] = Ref(arg, "d")
+    taken = set(names) | set(form.params) | {n for n, _ in form.lets}
     renamed: dict[str, str] = {}
     for name, kind in [*((p, "param") for p in form.params), *((n, "let") for n, _ in form.lets)]:
-        if name in AREA_INPUTS and (name, kind) not in swap:
+        if name in names and (name, kind) not in swap:
             new = f"{name}_{kind}"
             while new in taken:
                 new += "_"
@@ -98,7 +109,7 @@ def area_export_form(model: AreaModel) -> tuple[ShaderForm, dict[str, str]] | No
     params = tuple(renamed.get(p, p) for p in kept)
     lets = tuple((renamed.get(n, n), sub(e)) for n, e in form.lets)
     out = ShaderForm(form.family, params, lets, sub(form.result), form.source, form.engine,
-                     form.note, AREA_INPUTS)  # fmt: skip
+                     form.note, names)  # fmt: skip
     return out, renamed
 
 
@@ -127,7 +138,7 @@ def _header(
     )
     inner = _inner(model)
     lines = [
-        f"{fname}({', '.join(AREA_INPUTS)}): E / I, the irradiance of an area light over its "
+        f"{fname}({', '.join(type(model).input_names)}): E / I, the irradiance of an area light over its "
         "intensity, at a receiver.",
         f"model   : {model.name} (an area model; lights: {model.light})",
         f"formula : {model.formula}",
@@ -141,8 +152,8 @@ def _header(
     if form.note:
         lines.append(f"          differs from the JAX model: {form.note}")
     lines.append(f"params  : {shown} ({where})" if shown else "params  : none")
-    width = max(map(len, AREA_INPUTS))
-    for k, x in enumerate(AREA_INPUTS):
+    width = max(map(len, type(model).input_names))
+    for k, x in enumerate(type(model).input_names):
         lines.append(f"{'inputs  :' if k == 0 else ' ' * 9} {x:<{width}}  {AREA_INPUT_TEXT[x]}")
     lines.append(
         "output  : E / I in 1/length^2 (I: the light's point-equivalent intensity, "
