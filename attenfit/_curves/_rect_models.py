@@ -71,14 +71,21 @@ class Jax:
 
     sqrt = staticmethod(safe_sqrt)
     abs = staticmethod(jnp.abs)
-    atan2 = staticmethod(jnp.arctan2)
     select = staticmethod(jnp.where)
     max = staticmethod(jnp.maximum)
     min = staticmethod(jnp.minimum)
 
     @staticmethod
+    def atan2(y: Any, x: Any) -> Any:
+        """atan2, 0 at (0, 0) with a finite gradient there."""
+        zero = (x == 0) & (y == 0)
+        return jnp.arctan2(y, jnp.where(zero, jnp.ones_like(x), x))
+
+    @staticmethod
     def acos(x: Any) -> Any:
-        return jnp.arccos(jnp.clip(x, -1, 1))
+        """acos as `atan2(sqrt(1 - x^2), x)`: the same values, finite gradients at +-1."""
+        c = jnp.clip(x, -1, 1)
+        return jnp.arctan2(safe_sqrt((1 - c) * (1 + c)), c)
 
     @staticmethod
     def ge(a: Any, b: Any) -> Any:

@@ -97,24 +97,25 @@ def frame_inputs(
     p, n = _receivers(points, normals)
     dt = p.dtype
     if isinstance(emitter, RectEmitter):
-        c, ex, ez = emitter.center, emitter.tangent, emitter.normal
-        sizes = (emitter.width / 2, emitter.height / 2)
+        c, ex, ez = (v.astype(dt) for v in (emitter.center, emitter.tangent, emitter.normal))
+        sizes = (emitter.width.astype(dt) / 2, emitter.height.astype(dt) / 2)
     elif isinstance(emitter, TubeEmitter):
-        c, ab = emitter.center, emitter.b - emitter.a
+        a, b = emitter.a.astype(dt), emitter.b.astype(dt)
+        c, ab = (a + b) / 2, b - a
         ex = ab / _safe_norm(ab)
-        trial = jnp.where(jnp.abs(ex[0]) < 0.9, jnp.array([1.0, 0, 0]), jnp.array([0, 1.0, 0]))
-        ez = jnp.cross(ex, trial.astype(ex.dtype))
+        trial = jnp.where(jnp.abs(ex[0]) < 0.9, jnp.eye(3, dtype=dt)[0], jnp.eye(3, dtype=dt)[1])
+        ez = jnp.cross(ex, trial)
         ez = ez / _safe_norm(ez)
-        sizes = (emitter.length / 2, emitter.radius)
+        sizes = (_safe_norm(ab) / 2, emitter.radius.astype(dt))
     else:
         raise BadTypeError(
             f"frame inputs are for a RectEmitter or a TubeEmitter, got {type(emitter).__name__}"
         )
-    rot = jnp.stack([ex, jnp.cross(ez, ex), ez]).astype(dt)  # rows: the frame's axes
-    q = (p - _bcast(c.astype(dt), p)) @ rot.T
+    rot = jnp.stack([ex, jnp.cross(ez, ex), ez])  # rows: the frame's axes
+    q = (p - _bcast(c, p)) @ rot.T
     m = n @ rot.T
     shape = q.shape[:-1]
-    size = tuple(jnp.broadcast_to(jnp.asarray(v).astype(dt), shape) for v in sizes)
+    size = tuple(jnp.broadcast_to(v, shape) for v in sizes)
     return (*(q[..., k] for k in range(3)), *(m[..., k] for k in range(3)), *size)
 
 
