@@ -15,6 +15,10 @@ from ._rank import Ranking as Ranking
 from ._rank import rank as rank
 from ._receivers import GAP_BAND_LABELS as GAP_BAND_LABELS
 from ._receivers import GAP_BANDS as GAP_BANDS
+from ._shapes import SHAPE_CONFIGS as SHAPE_CONFIGS
+from ._shapes import ShapeConfig as ShapeConfig
+from ._shapes import ShapeWorst as ShapeWorst
+from ._shapes import shape_worst_case as shape_worst_case
 from ._worst import WorstCase as WorstCase
 from ._worst import receiver_error as receiver_error
 from ._worst import typical_error as typical_error

@@ -38,7 +38,8 @@ from jaxtyping import Array, Float
 from .._curves import AreaModel, Family, PointLight
 from .._errors import BadTypeError, BadValueError
 from .._float64 import in_float64
-from .._truth import DiskEmitter, SphereEmitter, area_irradiance, emitter_from_dict, irradiance
+from .._truth import DiskEmitter, RectEmitter, SphereEmitter, TubeEmitter, area_irradiance
+from .._truth import emitter_from_dict, irradiance
 from ._receivers import (
     GAP_BANDS,
     SET_LABELS,
@@ -186,15 +187,20 @@ def _f64(tree: Any) -> Any:
     )
 
 
-def _light(emitter: Any) -> str:
+def _light(emitter: Any, shapes: bool = False) -> str:
+    """The light's kind; rectangles and tubes (`shapes`) for `receiver_error` only (their
+    receiver sets are `_shapes`')."""
     if isinstance(emitter, SphereEmitter):
         return "sphere"
     if isinstance(emitter, DiskEmitter):
         if emitter.two_sided:
             raise BadValueError("worst_case judges one-sided disks (the report's); got two-sided")
         return "disk"
+    if shapes and isinstance(emitter, RectEmitter | TubeEmitter):
+        return emitter.kind
     raise BadTypeError(
         f"emitter must be a SphereEmitter or a DiskEmitter, got {type(emitter).__name__}"
+        + ("" if shapes else " (rectangles and tubes: attenfit._judge.shape_worst_case)")
     )
 
 
@@ -401,9 +407,9 @@ def _grid_counts(piece: Piece) -> tuple[int, ...]:
 
 
 # ============================================================================ the API
-def _check(model: Any, emitter: Any, band: str, receivers: str | Sequence[str]):
+def _check(model: Any, emitter: Any, band: str, receivers: str | Sequence[str], shapes=False):
     m = _as_model(model)
-    light = _light(emitter)
+    light = _light(emitter, shapes)
     if band not in GAP_BANDS:
         raise BadValueError(f"band must be one of {list(GAP_BANDS)}, got {band!r}")
     if isinstance(receivers, str):
@@ -445,7 +451,7 @@ def receiver_error(
     """The report's signed error of `model` at receivers (world coordinates, m): relative to
     the truth for "facing" and "floor", to the truth facing the light's centre for "any";
     NaN where that reference is below `REF_MIN` times the light's radiance. Float64 NumPy."""
-    m, em, _, sets = _check(model, emitter, "contact", receivers)
+    m, em, _, sets = _check(model, emitter, "contact", receivers, shapes=True)
     if len(sets) != 1:
         raise BadValueError(f"receivers must name one set of {list(SETS)}, got {receivers!r}")
     p = np.asarray(points, np.float64)
