@@ -26,7 +26,7 @@ from .._errors import AttenfitError
 from .._fit import fit
 from .._judge import Contender, rank
 from .._shaders import LANGUAGES, area_compiled_cost, function_source
-from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep
+from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep, model_inputs
 from ._advice import pct
 from ._light_fits import LightData
 from ._scene import Scene
@@ -137,10 +137,23 @@ def _facing_curve(light: Any) -> Any:
     return lambda d: 1 / np.maximum(d, r) ** 2
 
 
+#: The area models a scene's lights can be escalated to, by the set of their kinds: a
+#: rectangle's (and the disk's, reading it as its equal-area disk), a tube's (and the
+#: sphere's, at the closest point of its axis times its projected-area factor).
+_WANT: tuple[tuple[frozenset[str], frozenset[str]], ...] = (
+    (frozenset({"disk"}), frozenset({"disk"})),
+    (frozenset({"rect"}), frozenset({"rect", "disk"})),
+    (frozenset({"tube"}), frozenset({"tube", "sphere"})),
+)
+
+
 def _models_for(kinds: set[str]) -> list[AreaModel]:
-    want = (
-        {"disk"} if kinds == {"disk"} else {"sphere"} if kinds <= {"sphere", "capsule"} else set()
-    )
+    want: set[str] = set()
+    for have, models in _WANT:
+        if kinds == have:
+            want = set(models)
+    if not want and kinds <= {"sphere", "capsule"}:
+        want = {"sphere"}
     return [
         get_area_model(n)()
         for n in list_area_models()
@@ -163,16 +176,15 @@ def escalate(
     if not models:
         return None
     with jax.enable_x64(True):
-        inputs = []
+        receivers = []
         worst = (-1.0, "")
         for k, (t, x) in enumerate(zip(truths, datas, strict=True)):
             em = t.dataset.emitter
             j = t.judged
             pts = np.asarray(t.dataset.points, dtype=np.float64)[j]
             nrm = np.asarray(t.dataset.normals, dtype=np.float64)[j]
-            ai = area_inputs(em, pts, nrm)
-            stacked = np.stack([np.asarray(v, dtype=np.float64) for v in ai])
-            inputs.append((stacked, float(em.intensity)))
+            receivers.append((em, pts, nrm))
+            stacked = np.stack([np.asarray(v, dtype=np.float64) for v in area_inputs(em, pts, nrm)])
             best = x.wpt * _facing_curve(em)(x.d)
             err = np.abs(best - x.E_true) / x.denom
             i = int(np.argmax(err))
@@ -193,6 +205,11 @@ def escalate(
             why += f"; {unlit} receivers facing away from the light's centre are lit and get 0 from any f(d)"
         candidates = []
         for m in models:
+            inputs = [
+                (np.stack([np.asarray(v, np.float64) for v in model_inputs(m, em, pts, nrm)]),
+                 float(em.intensity))
+                for em, pts, nrm in receivers
+            ]  # fmt: skip
             for variant, fitted in _variants(m, inputs, datas):
                 errs = []
                 for (stacked, intensity), x in zip(inputs, datas, strict=True):
@@ -217,7 +234,7 @@ def escalate(
     failing = [c.item for c in ranking.outside]
     winner = passing[0] if passing else None
     closest = ranking.closest.item if ranking.closest is not None else None
-    shaders = _shaders(winner, [float(light.radius) for light in lights]) if winner else {}
+    shaders = _shaders(winner, [t.dataset.emitter for t in truths]) if winner else {}
     return AreaEscalation(
         why, (*passing, *failing), winner, closest, label, shaders, float(scene.tolerance)
     )
@@ -243,16 +260,32 @@ def _variants(
     return out
 
 
-def _shaders(winner: AreaCandidate, radii: Sequence[float]) -> dict[str, str]:
+def _sizes(model: AreaModel, emitter: Any) -> str:
+    """The light's size as the function's arguments read it (`r`; a rectangle's `hw, hh`,
+    a tube's `hl, r`)."""
+    x = model_inputs(model, emitter, np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))
+    names = type(model).input_names
+    return ", ".join(
+        f"{k} = {float(np.asarray(x[names.index(k)]).reshape(-1)[0]):.6g}"
+        for k in type(model).form_sizes.values()
+    )
+
+
+def _shaders(winner: AreaCandidate, emitters: Sequence[Any]) -> dict[str, str]:
     """The winner's function per language (`attenfit_<model>`, one for every light: the
-    light's radius is its argument `r`), with the export's header and the scene's lines."""
+    light's size is its argument: `r`, or a rectangle's `hw, hh`), with the export's header
+    and the scene's lines."""
     model = get_area_model(winner.model)(**(winner.params if winner.fitted else {}))
-    lights = ", ".join(f"r = {r:.6g} (light {k})" for k, r in enumerate(radii))
+    with jax.enable_x64(True):
+        sizes = [f"{_sizes(model, em)} (light {k})" for k, em in enumerate(emitters)]
+    radius = type(model).form_sizes == {"radius": "r"}
+    lights = (", " if radius else "; ").join(sizes)
     fitted = " (fitted to it)" if winner.fitted else ""
     notes = [
         f"scene   : the area model recommended for this scene{fitted}: max error "
         f"{pct(winner.error)} over its judged receivers",
-        f"lights  : {lights}; pass each light's radius as r",
+        f"lights  : {lights}; "
+        + ("pass each light's radius as r" if radius else "pass each light's size as these arguments"),
     ]
     fname = f"attenfit_{model.name}"
     return {lang: function_source(model, lang, fname, notes=notes)[0] for lang in LANGUAGES}
