@@ -266,3 +266,32 @@ def test_the_models_refuse_a_light_of_another_shape():
         area.area_irradiance(ClippedRect(), sphere, np.ones((1, 3)), np.ones((1, 3)))
     with pytest.raises(ValueError, match="8 inputs"):
         ClippedRect()(1.0, 1.0, 1.0, 1.0)
+
+
+# ----------------------------------------------------------------------------- judged
+def test_shape_worst_case_on_the_panels_floors():
+    """The exact form is exact on every floor; the point-light model is worst right under
+    the panel at h = w/4 (there the truth is about pi L, the model I / h^2 = 16 L: over 4x
+    the truth), and the worst case bounds the error at random receivers of the floor."""
+    from attenfit._judge import SHAPE_CONFIGS, receiver_error, shape_worst_case
+
+    quarter = SHAPE_CONFIGS[0]
+    assert quarter.key == "panel_quarter"
+    exact = shape_worst_case(ClippedRect(), quarter, grid=9, seeds=1, levels=1)
+    assert exact.error < 1e-9
+    point = shape_worst_case(area.PointLight(), quarter, grid=17)
+    assert point.error > 4 and point.point[:2] == (0.0, 0.0)
+    rng = np.random.default_rng(0)
+    pts, nrm = quarter.receivers(rng.uniform(size=(200, 2)))
+    sample = np.abs(receiver_error(area.PointLight(), quarter.emitter(), pts, nrm, receivers="floor"))
+    assert np.nanmax(sample) <= point.error + 1e-12
+    with pytest.raises(ValueError, match="unknown configuration"):
+        shape_worst_case(ClippedRect(), "ceiling")
+
+
+def test_a_rect_scene_escalates_to_the_rect_and_disk_models():
+    from attenfit._scenes._escalate import _models_for
+
+    names = {m.name for m in _models_for({"rect"})}
+    assert {"clipped_rect", "three_rect", "frostbite_rect", "clipped_disk"} <= names
+    assert "karis_tube" not in names and "snyder_sphere" not in names

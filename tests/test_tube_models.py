@@ -14,7 +14,7 @@ import pytest
 
 import attenfit as af
 from attenfit import area
-from attenfit._curves import FrostbiteTube, KarisTube
+from attenfit._curves import FrostbiteTube, KarisTube, LambertLine
 from attenfit._shaders import area_compiled_cost, evaluate_area_form
 from attenfit._shaders._area_export import area_source
 from attenfit._truth import model_inputs
@@ -23,7 +23,7 @@ A = np.array([-0.6, 0.3, 2.5])
 B = np.array([0.6, 0.3, 2.5])
 R = 0.013
 TUBE = af.TubeEmitter(A, B, R, intensity=3.0)
-MODELS = [KarisTube(), FrostbiteTube()]
+MODELS = [KarisTube(), FrostbiteTube(), LambertLine()]
 L_RAD = 3.0 / (math.pi * R * R)  # the radiance, I / (pi r^2)
 
 
@@ -125,6 +125,41 @@ def test_frostbite_tube_is_its_listing():
         assert got[i] == pytest.approx(L_RAD * e, rel=1e-9, abs=1e-12), i
 
 
+def test_lambert_line_is_the_lines_integral_by_quadrature():
+    """The closed form against the midpoint rule of `2 r L rho max(0, n.L) / |L|^4` along the
+    axis (the horizon clipped by the max), at receivers of any orientation."""
+    p, n = _receivers(60, 7)
+    with jax.enable_x64(True):
+        got = np.asarray(area.area_irradiance(LambertLine(), TUBE, p, n))
+    t = (np.arange(200000) + 0.5) / 200000
+    axis = (B - A) / np.linalg.norm(B - A)
+    for i in range(len(p)):
+        lt = A[None] + t[:, None] * (B - A)[None] - p[i][None]
+        rho = np.linalg.norm(np.cross(lt[0], axis))
+        dist = np.linalg.norm(lt, axis=1)
+        f = 2 * R * L_RAD * rho * np.maximum(lt @ n[i], 0) / dist**4
+        want = f.mean() * np.linalg.norm(B - A)
+        assert got[i] == pytest.approx(want, rel=1e-5, abs=1e-9 * L_RAD * R), i
+
+
+def test_lambert_line_tends_to_the_truth_of_a_thin_tube():
+    """Receivers of any orientation at 20 to 200 radii from the axis: within `r / rho` of
+    the truth's facing value (what it omits, the side's width, is of order r / distance)."""
+    rng = np.random.default_rng(8)
+    c = (A + B) / 2
+    k = 300
+    rho = np.exp(rng.uniform(np.log(20 * R), np.log(200 * R), k))
+    phi = rng.uniform(0, 2 * np.pi, k)
+    p = c + np.stack([rng.uniform(-0.8, 0.8, k), rho * np.cos(phi), rho * np.sin(phi)], -1)
+    n = rng.normal(size=(k, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    with jax.enable_x64(True):
+        exact = np.asarray(af.irradiance(TUBE, p, n))
+        facing = np.asarray(af.irradiance(TUBE, p, TUBE.closest_point(p) - p))
+        got = np.asarray(area.area_irradiance(LambertLine(), TUBE, p, n))
+    assert np.all(np.abs(got - exact) / facing < R / rho)
+
+
 def test_broadside_and_far_the_models_approach_the_truth():
     """Facing receivers off the tube's middle, far from it (the line limit): the line tends
     to the truth; Frostbite's form to the truth plus its sphere (the end caps, which this
@@ -189,3 +224,23 @@ def test_values_and_gradients_are_finite(model, dtype):
         assert np.all(np.asarray(v) >= 0)
         grads = jax.grad(lambda z: jnp.sum(model(*x[:2], z, *x[3:])))(x[2])
         assert np.all(np.isfinite(np.asarray(grads)))
+
+
+def test_shape_worst_case_on_a_wall_beside_a_tube():
+    """Beyond the tube's ends its side is seen edge-on and the truth fades; the isotropic
+    line does not (its worst case far along the axis), Frostbite's sphere less so."""
+    from attenfit._judge import SHAPE_CONFIGS, shape_worst_case
+
+    wall = [c for c in SHAPE_CONFIGS if c.key == "tube_one"][0]
+    karis = shape_worst_case(KarisTube(), wall, grid=9, seeds=1, levels=1)
+    frost = shape_worst_case(FrostbiteTube(), wall, grid=9, seeds=1, levels=1)
+    assert karis.error > 1 and karis.point[0] > 1  # past the end (x in units of l)
+    assert frost.error < karis.error
+
+
+def test_a_tube_scene_escalates_to_the_tube_and_sphere_models():
+    from attenfit._scenes._escalate import _models_for
+
+    names = {m.name for m in _models_for({"tube"})}
+    assert {"karis_tube", "frostbite_tube", "snyder_sphere"} <= names
+    assert "clipped_rect" not in names

@@ -63,6 +63,7 @@ from ._rect_models import RectModel as RectModel
 from ._rect_models import ThreeRect as ThreeRect
 from ._tube_models import FrostbiteTube as FrostbiteTube
 from ._tube_models import KarisTube as KarisTube
+from ._tube_models import LambertLine as LambertLine
 from ._tube_models import TubeModel as TubeModel
 from ._directional import MIN_COS_WIDTH as MIN_COS_WIDTH
 from ._directional import SPOT_FALLOFFS as SPOT_FALLOFFS

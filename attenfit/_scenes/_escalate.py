@@ -26,7 +26,8 @@ from .._errors import AttenfitError
 from .._fit import fit
 from .._judge import Contender, rank
 from .._shaders import LANGUAGES, area_compiled_cost, function_source
-from .._truth import CapsuleEmitter, DiskEmitter, area_inputs, facing_sweep, model_inputs
+from .._truth import CapsuleEmitter, DiskEmitter, RectEmitter, TubeEmitter, area_inputs
+from .._truth import facing_sweep, model_inputs
 from ._advice import pct
 from ._light_fits import LightData
 from ._scene import Scene
@@ -130,8 +131,10 @@ def _facing_curve(light: Any) -> Any:
     r = float(light.radius)
     if isinstance(light, DiskEmitter):
         return lambda d: 1 / (d * d + r * r)
-    if isinstance(light, CapsuleEmitter):
-        ds = facing_sweep(light, 1.0001 * r, 1e4 * r, 512, dtype=np.float64)
+    if isinstance(light, CapsuleEmitter | TubeEmitter | RectEmitter):  # on a sweep facing it
+        # clear of the surface (`facing_sweep` refuses receivers float32 cannot place)
+        d_min = {RectEmitter: 0.01, TubeEmitter: 1.01}.get(type(light), 1.0001) * r
+        ds = facing_sweep(light, d_min, 1e4 * r, 512, dtype=np.float64)
         ld, lf = np.log(ds.distance()), np.log(ds.attenuation())
         return lambda d: np.exp(np.interp(np.log(np.maximum(d, ds.distance()[0])), ld, lf))
     return lambda d: 1 / np.maximum(d, r) ** 2
