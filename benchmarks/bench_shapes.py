@@ -18,6 +18,7 @@ from attenfit._curves import (
     FrostbiteRect,
     FrostbiteTube,
     KarisTube,
+    LambertLine,
     SnyderSphere,
     ThreeRect,
 )
@@ -28,7 +29,7 @@ from attenfit._shaders import area_compiled_cost
 def _models(light: str) -> list:
     if light == "rect":
         return [area.PointLight(), ClippedDisk(), ClippedRect(), ThreeRect(), FrostbiteRect()]
-    return [area.PointLight(), SnyderSphere(), KarisTube(), FrostbiteTube()]
+    return [area.PointLight(), SnyderSphere(), KarisTube(), FrostbiteTube(), LambertLine()]
 
 
 def _pct(x: float) -> str:

@@ -79,7 +79,9 @@ def three_ltc_evaluate_diffuse(n, v, p, light_pos, half_width, half_height):
     return max((length * length + f[2]) / (length + 1.0), 0.0)
 
 
-def frostbite_rect_illuminance(world_pos, world_normal, light_pos, left, up, width, height, plane_n):
+def frostbite_rect_illuminance(
+    world_pos, world_normal, light_pos, left, up, width, height, plane_n
+):
     """Lagarde & de Rousiers 2014, "Moving Frostbite to PBR" §4.7.3: `rectangleSolidAngle`
     and the rectangle light's illuminance listing, line by line in float64."""
 
@@ -240,7 +242,9 @@ def test_values_and_gradients_are_finite(model, dtype):
         p = np.concatenate([p, C + np.array([[0.0, 0.0, -1e-9], [W / 2, H / 2, -1e-6]])])
         n = np.concatenate([n, [[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]])
         npd = np.float64 if dtype == jnp.float64 else np.float32
-        x = [jnp.asarray(v, dtype) for v in model_inputs(model, PANEL, p.astype(npd), n.astype(npd))]
+        x = [
+            jnp.asarray(v, dtype) for v in model_inputs(model, PANEL, p.astype(npd), n.astype(npd))
+        ]
         v = model(*x)
         assert v.dtype == dtype and np.all(np.isfinite(np.asarray(v)))
         assert np.all(np.asarray(v) >= 0)
@@ -283,7 +287,9 @@ def test_shape_worst_case_on_the_panels_floors():
     assert point.error > 4 and point.point[:2] == (0.0, 0.0)
     rng = np.random.default_rng(0)
     pts, nrm = quarter.receivers(rng.uniform(size=(200, 2)))
-    sample = np.abs(receiver_error(area.PointLight(), quarter.emitter(), pts, nrm, receivers="floor"))
+    sample = np.abs(
+        receiver_error(area.PointLight(), quarter.emitter(), pts, nrm, receivers="floor")
+    )
     assert np.nanmax(sample) <= point.error + 1e-12
     with pytest.raises(ValueError, match="unknown configuration"):
         shape_worst_case(ClippedRect(), "ceiling")

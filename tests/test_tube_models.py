@@ -231,7 +231,7 @@ def test_shape_worst_case_on_a_wall_beside_a_tube():
     line does not (its worst case far along the axis), Frostbite's sphere less so."""
     from attenfit._judge import SHAPE_CONFIGS, shape_worst_case
 
-    wall = [c for c in SHAPE_CONFIGS if c.key == "tube_one"][0]
+    wall = next(c for c in SHAPE_CONFIGS if c.key == "tube_one")
     karis = shape_worst_case(KarisTube(), wall, grid=9, seeds=1, levels=1)
     frost = shape_worst_case(FrostbiteTube(), wall, grid=9, seeds=1, levels=1)
     assert karis.error > 1 and karis.point[0] > 1  # past the end (x in units of l)

@@ -42,11 +42,12 @@ import jax.numpy as jnp
 
 from .._ir import Expr, Lets, Ref, fn
 from ._area import RECT_INPUTS, AreaModel, register_area_model, safe_sqrt
-from ._forms import area_shader
+from ._forms import area_form
 
 __all__ = [
     "FRAME_FORM_INPUTS",
     "ClippedRect",
+    "FrameModel",
     "FrostbiteRect",
     "Ir",
     "Jax",
@@ -288,20 +289,45 @@ def _frostbite_rect(bk: Any, x: dict[str, Any], hw: Any, hh: Any) -> Any:
 
 
 # ----------------------------------------------------------------------------- the models
-class RectModel(AreaModel):
+class FrameModel(AreaModel):
+    """An area model that reads the receiver in its light's frame (abstract): a rectangle's
+    (`RectModel`) or a tube's (`_tube_models.TubeModel`). A final class gives its formula
+    once for both back ends, `build(bk, x, a, b)` (`x` the receiver's point and normal by
+    name, `a`, `b` the light's size in `form_sizes` order), and its shader form's citation
+    (`form_source`, `form_engine`, `form_note`): `irradiance` and `shader_form` are both
+    `build`, with the `Jax` and the `Ir` back ends."""
+
+    form_inputs = FRAME_FORM_INPUTS
+    #: The formula for both back ends (a final class's `staticmethod`).
+    build: ClassVar[Any]
+    #: Where the shader form comes from, whether it is the engine's code, where it parts
+    #: from the JAX form.
+    form_source: ClassVar[str]
+    form_engine: ClassVar[bool]
+    form_note: ClassVar[str] = ""
+
+    def irradiance(self, *x: Any) -> Any:
+        receiver = dict(zip(FRAME_FORM_INPUTS, x[:6], strict=True))
+        return type(self).build(Jax, receiver, *x[6:])
+
+    def shader_form(self):
+        cls = type(self)
+
+        def make(let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
+            return cls.build(Ir(let), x, *(p[k] for k in cls.form_sizes))
+
+        return area_form(self, make, cls.form_source, engine=cls.form_engine, note=cls.form_note)
+
+
+class RectModel(FrameModel):
     """An area model of a one-sided rectangle (abstract): it reads `RECT_INPUTS`, and its
     shader form the receiver in the light's frame and the parameters `half_width`,
-    `half_height`. Subclasses give `_form(bk, x, hw, hh)`, written for both back ends."""
+    `half_height`."""
 
     input_names = RECT_INPUTS
     inputs = len(RECT_INPUTS)
-    form_inputs = FRAME_FORM_INPUTS
     form_sizes: ClassVar[dict[str, str]] = {"half_width": "hw", "half_height": "hh"}
     light = "rect"
-
-
-def _jax_inputs(x: tuple[Any, ...]) -> dict[str, Any]:
-    return dict(zip(FRAME_FORM_INPUTS, x[:6], strict=True))
 
 
 @register_area_model
@@ -318,18 +344,13 @@ class ClippedRect(RectModel):
         "AreaLighting.hlsl ClipQuadToHorizon + PolygonIrradiance; Godot 4.5 area lights (PR #108219)"
     )
     exact = "everywhere in front of the rectangle"
-
-    def irradiance(self, x, y, z, nx, ny, nz, hw, hh):
-        return _clipped_rect(Jax, _jax_inputs((x, y, z, nx, ny, nz)), hw, hh)
-
-    @area_shader(
+    build = staticmethod(_clipped_rect)
+    form_source = (
         "Lambert 1760 via Heitz et al. 2016 eq. 11 after clipping (HDRP ClipQuadToHorizon, "
-        "PolygonIrradiance)",
-        engine=False,
-        note="the clipping as a fixed sequence of selects; no guard at a corner (|a x b| = 0)",
+        "PolygonIrradiance)"
     )
-    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
-        return _clipped_rect(Ir(let), x, p["half_width"], p["half_height"])
+    form_engine = False
+    form_note = "the clipping as a fixed sequence of selects; no guard at a corner (|a x b| = 0)"
 
 
 @register_area_model
@@ -345,18 +366,13 @@ class ThreeRect(RectModel):
         "LTC_EdgeVectorFormFactor, LTC_ClippedSphereFormFactor"
     )
     exact = "nowhere (the rational fit of theta / sin theta is within about 1e-3)"
-
-    def irradiance(self, x, y, z, nx, ny, nz, hw, hh):
-        return _three_rect(Jax, _jax_inputs((x, y, z, nx, ny, nz)), hw, hh)
-
-    @area_shader(
-        "three.js lights_physical_pars_fragment.glsl.js LTC_Evaluate with mat3(1.0)",
-        engine=True,
-        note="the receiver's frame is the light's (three.js rotates into (T1, T2, N) first: "
-        "the same form factor)",
+    build = staticmethod(_three_rect)
+    form_source = "three.js lights_physical_pars_fragment.glsl.js LTC_Evaluate with mat3(1.0)"
+    form_engine = True
+    form_note = (
+        "the receiver's frame is the light's (three.js rotates into (T1, T2, N) first: the same "
+        "form factor)"
     )
-    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
-        return _three_rect(Ir(let), x, p["half_width"], p["half_height"])
 
 
 @register_area_model
@@ -369,13 +385,6 @@ class FrostbiteRect(RectModel):
     formula = "Omega (sum of max(0, n.l_i) over corners and centre) / 5 / (4 hw hh)"
     source = "Lagarde & de Rousiers 2014, Moving Frostbite to PBR, §4.7.3 (rectangleSolidAngle)"
     exact = "nowhere (exact in the limit of a small rectangle wholly above the horizon)"
-
-    def irradiance(self, x, y, z, nx, ny, nz, hw, hh):
-        return _frostbite_rect(Jax, _jax_inputs((x, y, z, nx, ny, nz)), hw, hh)
-
-    @area_shader(
-        "Lagarde & de Rousiers 2014 §4.7.3, the rectangle light's illuminance listing",
-        engine=True,
-    )
-    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
-        return _frostbite_rect(Ir(let), x, p["half_width"], p["half_height"])
+    build = staticmethod(_frostbite_rect)
+    form_source = "Lagarde & de Rousiers 2014 §4.7.3, the rectangle light's illuminance listing"
+    form_engine = True

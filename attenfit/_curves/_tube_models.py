@@ -26,12 +26,8 @@ from __future__ import annotations
 import math
 from typing import Any, ClassVar
 
-import jax.numpy as jnp
-
-from .._ir import Expr, Lets, Ref
-from ._area import TUBE_INPUTS, AreaModel, register_area_model
-from ._forms import area_shader
-from ._rect_models import FRAME_FORM_INPUTS, Ir, Jax, frame_dot, solid_angle_cosines
+from ._area import TUBE_INPUTS, register_area_model
+from ._rect_models import FrameModel, frame_dot, solid_angle_cosines
 
 __all__ = ["FrostbiteTube", "KarisTube", "LambertLine", "TubeModel"]
 
@@ -95,20 +91,14 @@ def _lambert_line(bk: Any, x: dict[str, Any], hl: Any, r: Any) -> Any:
     return bk.max(lit * 2.0 * j / (math.pi * r * rho * rho), 0.0)
 
 
-class TubeModel(AreaModel):
+class TubeModel(FrameModel):
     """An area model of a tube (abstract): it reads `TUBE_INPUTS`, and its shader form the
-    receiver in the tube's frame and the parameters `half_length`, `radius`. Subclasses
-    write their form once for both back ends (`_rect_models.Jax`, `Ir`)."""
+    receiver in the tube's frame and the parameters `half_length`, `radius`."""
 
     input_names = TUBE_INPUTS
     inputs = len(TUBE_INPUTS)
-    form_inputs = FRAME_FORM_INPUTS
     form_sizes: ClassVar[dict[str, str]] = {"half_length": "hl", "radius": "r"}
     light = "tube"
-
-
-def _jax_inputs(x: tuple[Any, ...]) -> dict[str, Any]:
-    return dict(zip(FRAME_FORM_INPUTS, x, strict=True))
 
 
 @register_area_model
@@ -121,13 +111,9 @@ class KarisTube(TubeModel):
     formula = "4 hl max(0, (n.L0/|L0| + n.L1/|L1|) / (|L0| |L1| + L0.L1)) / (pi r)"
     source = "Karis 2013, Real Shading in Unreal Engine 4 (SIGGRAPH course notes), tube lights"
     exact = "nowhere (an isotropic line: the truth's side fades as sin psi toward the axis)"
-
-    def irradiance(self, x, y, z, nx, ny, nz, hl, r):
-        return _karis(Jax, _jax_inputs((x, y, z, nx, ny, nz)), hl, r)
-
-    @area_shader("Karis 2013 (tube light irradiance, the line integral)", engine=False)
-    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
-        return _karis(Ir(let), x, p["half_length"], p["radius"])
+    build = staticmethod(_karis)
+    form_source = "Karis 2013 (tube light irradiance, the line integral)"
+    form_engine = False
 
 
 @register_area_model
@@ -140,18 +126,10 @@ class FrostbiteTube(TubeModel):
     formula = "(Omega_rect mean cos_5 + pi max(0, n.l_s) r^2 / d_s^2) / (pi r^2)"
     source = "Lagarde & de Rousiers 2014, Moving Frostbite to PBR, §4.7.4 (tube light)"
     exact = "nowhere"
-
-    def irradiance(self, x, y, z, nx, ny, nz, hl, r):
-        out = _frostbite(Jax, _jax_inputs((x, y, z, nx, ny, nz)), hl, r)
-        return jnp.where(jnp.isfinite(out), out, jnp.zeros_like(out))
-
-    @area_shader(
-        "Lagarde & de Rousiers 2014 §4.7.4, the tube light's illuminance listing",
-        engine=True,
-        note="no guard on the axis (forward = normalize(0))",
-    )
-    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
-        return _frostbite(Ir(let), x, p["half_length"], p["radius"])
+    build = staticmethod(_frostbite)
+    form_source = "Lagarde & de Rousiers 2014 §4.7.4, the tube light's illuminance listing"
+    form_engine = True
+    form_note = "no guard on the axis (forward = normalize(0))"
 
 
 @register_area_model
@@ -172,10 +150,6 @@ class LambertLine(TubeModel):
         "length); the integral derived here (elementary), tested against quadrature"
     )
     exact = "as the tube's radius over the distance tends to 0 (a thin tube)"
-
-    def irradiance(self, x, y, z, nx, ny, nz, hl, r):
-        return _lambert_line(Jax, _jax_inputs((x, y, z, nx, ny, nz)), hl, r)
-
-    @area_shader("the Lambertian line's closed form (LambertLine's docstring)", engine=False)
-    def shader_form(self, let: Lets, x: dict[str, Ref], p: dict[str, Ref]) -> Expr:
-        return _lambert_line(Ir(let), x, p["half_length"], p["radius"])
+    build = staticmethod(_lambert_line)
+    form_source = "the Lambertian line's closed form (LambertLine's docstring)"
+    form_engine = False

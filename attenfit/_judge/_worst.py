@@ -38,8 +38,15 @@ from jaxtyping import Array, Float
 from .._curves import AreaModel, Family, PointLight
 from .._errors import BadTypeError, BadValueError
 from .._float64 import in_float64
-from .._truth import DiskEmitter, RectEmitter, SphereEmitter, TubeEmitter, area_irradiance
-from .._truth import emitter_from_dict, irradiance
+from .._truth import (
+    DiskEmitter,
+    RectEmitter,
+    SphereEmitter,
+    TubeEmitter,
+    area_irradiance,
+    emitter_from_dict,
+    irradiance,
+)
 from ._receivers import (
     GAP_BANDS,
     SET_LABELS,

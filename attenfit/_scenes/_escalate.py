@@ -26,8 +26,15 @@ from .._errors import AttenfitError
 from .._fit import fit
 from .._judge import Contender, rank
 from .._shaders import LANGUAGES, area_compiled_cost, function_source
-from .._truth import CapsuleEmitter, DiskEmitter, RectEmitter, TubeEmitter, area_inputs
-from .._truth import facing_sweep, model_inputs
+from .._truth import (
+    CapsuleEmitter,
+    DiskEmitter,
+    RectEmitter,
+    TubeEmitter,
+    area_inputs,
+    facing_sweep,
+    model_inputs,
+)
 from ._advice import pct
 from ._light_fits import LightData
 from ._scene import Scene
@@ -288,7 +295,11 @@ def _shaders(winner: AreaCandidate, emitters: Sequence[Any]) -> dict[str, str]:
         f"scene   : the area model recommended for this scene{fitted}: max error "
         f"{pct(winner.error)} over its judged receivers",
         f"lights  : {lights}; "
-        + ("pass each light's radius as r" if radius else "pass each light's size as these arguments"),
+        + (
+            "pass each light's radius as r"
+            if radius
+            else "pass each light's size as these arguments"
+        ),
     ]
     fname = f"attenfit_{model.name}"
     return {lang: function_source(model, lang, fname, notes=notes)[0] for lang in LANGUAGES}

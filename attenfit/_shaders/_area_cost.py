@@ -79,10 +79,6 @@ def area_compiled_cost(model: AreaModel) -> CompiledCost:
     form = _form(m)
     fname = "attenfit_area"
     glsl = print_form(form, "glsl", fname, baked_values(m, _GENERIC_R), uniforms=False, header=())
-    spirv = (
-        spirv_counts(glsl, fname, inputs=len(form.inputs))
-        if cost_method() == "spirv"
-        else None
-    )
+    spirv = spirv_counts(glsl, fname, inputs=len(form.inputs)) if cost_method() == "spirv" else None
     method = "spirv" if spirv is not None else "estimate"
     return CompiledCost(model.name, "shader", spirv, None, form_cost(form), method)

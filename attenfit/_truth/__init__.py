@@ -17,9 +17,9 @@ from ._emitters import DiskEmitter as DiskEmitter
 from ._emitters import SphereEmitter as SphereEmitter
 from ._emitters import emitter_from_dict as emitter_from_dict
 from ._geometry import area_inputs as area_inputs
+from ._geometry import area_irradiance as area_irradiance
 from ._geometry import frame_inputs as frame_inputs
 from ._geometry import model_inputs as model_inputs
-from ._geometry import area_irradiance as area_irradiance
 from ._irradiance import irradiance as irradiance
 from ._rect import RectEmitter as RectEmitter
 from ._tube import TubeEmitter as TubeEmitter
