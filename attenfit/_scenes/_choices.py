@@ -362,7 +362,7 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
         props = engine.properties(pick.family, params, light, spot)
         verdict = engine_verdict(
             engine.witness, light, props, sub, scene.tolerance,
-            engine.size_prop, engine.size_unit * light.radius,
+            engine.size_prop, engine.size_unit * light.radius, scene.precision,
         )  # fmt: skip
         props, status = dict(verdict.properties), verdict.status
     return LightChoice(
