@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from _engine_code import SPOT_TOML
 
 from attenfit._judge import get_witness
 from attenfit._scenes import Scene
@@ -199,21 +200,6 @@ extent = 3.0
 resolution = 24
 """
 
-_SPOT = """
-tolerance = 0.05
-[[lights]]
-kind = "spot"
-radius = 0.05
-height = 3.0
-umbra = {umbra}
-penumbra = {penumbra}
-profile = "threejs"
-[[receivers]]
-kind = "plane"
-extent = {extent}
-resolution = 24
-"""
-
 
 def _answer(tmp_path, text, engine):
     from attenfit._scenes._answer import answer_scene
@@ -273,7 +259,11 @@ def test_disk_claim_is_what_the_engine_renders(tmp_path, engine):
 def test_godot_spot_has_its_own_cone_and_honest_verdict(tmp_path):
     """Issue: a 30-degree spot was passed at 4.8% with no spot_angle_attenuation; Godot's
     own cone renders ~27% off at best: "fail" with the closest settings."""
-    ans = _answer(tmp_path, _SPOT.format(umbra=30, penumbra=25, extent=2.5), "godot")
+    ans = _answer(
+        tmp_path,
+        SPOT_TOML.format(umbra=30, penumbra=25, extent=2.5, resolution=24, profile="threejs"),
+        "godot",
+    )
     (c,) = ans.choices
     p = c.properties
     assert "spot_angle_attenuation" in p
@@ -285,7 +275,7 @@ def test_godot_spot_has_its_own_cone_and_honest_verdict(tmp_path):
 def test_unreal_90_degree_spot_fails(tmp_path):
     """Issue: Unreal clamps the outer cone to 89 deg + 0.001 rad; a hemisphere spot lit to
     grazing is cut there: the answer is "fail", never "closest 11%"."""
-    text = _SPOT.format(umbra=89.9, penumbra=80, extent=30.0).replace("threejs", "aperture")
+    text = SPOT_TOML.format(umbra=89.9, penumbra=80, extent=30.0, resolution=24, profile="aperture")
     ans = _answer(tmp_path, text, "unreal")
     (c,) = ans.choices
     assert c.status == "fail"

@@ -265,20 +265,35 @@ class UnrealWitness(EngineWitness):
 
 
 class _ScaleOffsetCone(EngineWitness):
-    """The `saturate(c scale + offset)^2` cone shared by Filament, Bevy, Unity and glTF."""
+    """The `saturate(c scale + offset)^2` cone shared by Filament, Bevy, Unity and glTF.
+
+    Its properties are `cone_inner` and `cone_outer`: half-angles in radians within
+    [0, pi/2] (`cone_props` derived so) unless a subclass states its own `cone_props`;
+    their cosines are the float32 cosines the engine's CPU side computes (Bevy's light.rs,
+    glTF's reference) unless a subclass states its own `cone_cosines` (Filament's
+    fast::cos, Unity's full angles in degrees)."""
 
     cone_floor: ClassVar[float]
+    cone_inner: ClassVar[str]
     #: the floor of d^2 in the engine's 1/d^2 (a punctual light's centimetre, or HALF_MIN)
     d2_floor: ClassVar[float] = 1e-4
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "cone_props" not in cls.__dict__:
+            cls.cone_props = tuple(
+                (n, 0.0, 0.5 * math.pi) for n in (cls.cone_inner, cls.cone_outer)
+            )
 
     @classmethod
     def distance(cls, d, props):
         return _window4(d, float(props[cls.range_prop])) / np.maximum(d * d, cls.d2_floor)
 
     @classmethod
-    @abc.abstractmethod
     def cone_cosines(cls, props: Props) -> tuple[float, float]:
-        """(cos inner, cos outer) as the engine computes them."""
+        """(cos inner, cos outer) as the engine computes them (class docstring)."""
+        inner = float(props.get(cls.cone_inner, 0.0))
+        return _f32(math.cos(inner)), _f32(math.cos(float(props[str(cls.cone_outer)])))
 
     @classmethod
     def cone(cls, cos_s, props):
@@ -298,8 +313,7 @@ class FilamentWitness(_ScaleOffsetCone):
         "scale = 1/max(1/1024, cosInner - cosOuter))"
     )
     size_effect = "Filament punctual lights have no size"
-    cone_props = (("spot_inner", 0.0, 0.5 * math.pi), ("spot_outer", 0.0, 0.5 * math.pi))
-    cone_outer = "spot_outer"
+    cone_inner, cone_outer = "spot_inner", "spot_outer"
     cone_floor = 1.0 / 1024.0
     range_prop = "falloff"
 
@@ -321,16 +335,9 @@ class BevyWitness(_ScaleOffsetCone):
         "1e-4)); point_light's radius moves the specular representative point only"
     )
     size_effect = "radius shapes the specular term only (representative point); diffuse unchanged"
-    cone_props = (("inner_angle", 0.0, 0.5 * math.pi), ("outer_angle", 0.0, 0.5 * math.pi))
-    cone_outer = "outer_angle"
+    cone_inner, cone_outer = "inner_angle", "outer_angle"
     cone_floor = 1e-4
     range_prop = "range"
-
-    @classmethod
-    def cone_cosines(cls, props):
-        return _f32(math.cos(float(props.get("inner_angle", 0.0)))), _f32(
-            math.cos(float(props["outer_angle"]))
-        )
 
 
 @final
@@ -345,7 +352,7 @@ class UnityWitness(_ScaleOffsetCone):
     )
     size_effect = "URP punctual lights have no size in the diffuse term"
     cone_props = (("innerSpotAngle", 0.0, 179.0), ("spotAngle", 1.0, 179.0))
-    cone_outer = "spotAngle"
+    cone_inner, cone_outer = "innerSpotAngle", "spotAngle"
     cone_floor = 0.001
     range_prop = "range"
     d2_floor = 2.0**-14
@@ -367,11 +374,7 @@ class GltfWitness(_ScaleOffsetCone):
         "saturate(cd scale + offset)^2)"
     )
     size_effect = "glTF punctual lights have no size"
-    cone_props = (
-        ("innerConeAngle", 0.0, 0.5 * math.pi),
-        ("outerConeAngle", 0.0, 0.5 * math.pi),
-    )
-    cone_outer = "outerConeAngle"
+    cone_inner, cone_outer = "innerConeAngle", "outerConeAngle"
     cone_floor = 0.001
     range_prop = "range"
 
@@ -382,12 +385,6 @@ class GltfWitness(_ScaleOffsetCone):
         if R is None or not math.isfinite(float(R)) or float(R) <= 0:
             return f
         return np.maximum(np.minimum(1.0 - (d / float(R)) ** 4, 1.0), 0.0) * f
-
-    @classmethod
-    def cone_cosines(cls, props):
-        return _f32(math.cos(float(props.get("innerConeAngle", 0.0)))), _f32(
-            math.cos(float(props["outerConeAngle"]))
-        )
 
 
 WITNESSES: tuple[type[EngineWitness], ...] = (

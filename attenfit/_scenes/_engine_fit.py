@@ -33,6 +33,9 @@ __all__ = ["EngineVerdict", "engine_verdict", "renders_as_spot"]
 #: The cone search (`_cone_search`): grid points per property, edge values refined, and
 #: golden-section steps per refinement.
 _GRID, _KEEP, _REFINE = 24, 3, 24
+#: The cone's edge is kept at least this fraction of its property's span past the outermost
+#: lit receiver (1.6e-5 rad for a spot angle in radians; float32 rounds a cosine by 6e-8).
+_MARGIN = 1e-5
 
 
 @dataclasses.dataclass(frozen=True)
@@ -103,14 +106,20 @@ def _cone_search(case: _Case, props: dict[str, Any]):
     is then quasi-convex in it, and so is their largest. So: for each edge value, the best
     shape by a `_GRID`-point scan (log-spaced for `cone_log`) refined by golden section
     between the best point's neighbours; edge values on a grid across the bounds and at
-    offsets from the outermost lit receiver's edge (`_edge`, 1e-8 to 1 of the span,
-    log-spaced), and the best `_KEEP` refined by golden section between their neighbours.
+    offsets past the outermost lit receiver's edge (`_edge`; log-spaced from `_MARGIN` of
+    the span, never closer), and the best `_KEEP` refined by golden section between their
+    neighbours.
     tests/test_engine_search.py checks it against a brute-force grid."""
     (oname, olo, ohi), (sname, slo, shi) = _cone_axes(case.w)
     log = sname in case.w.cone_log
     seen: dict[tuple[float, float], float] = {}
 
+    edge = _edge(case, props, oname, sname, olo, ohi, slo)
+    margin = _MARGIN * (ohi - olo)
+
     def err(vo: float, vs: float) -> float:
+        if edge is not None and edge < vo < edge + margin:
+            vo = edge + margin  # float32 rounding of a receiver's cosine cannot cross it
         key = (float(vo), float(vs))
         if key not in seen:
             seen[key] = case.worst({**props, oname: key[0], sname: key[1]})
@@ -132,9 +141,9 @@ def _cone_search(case: _Case, props: dict[str, Any]):
     given = float(props.get(oname, olo))
     edges.append(min(max(given, olo), ohi))
     err(edges[-1], float(props.get(sname, slo)))
-    edge = _edge(case, props, oname, sname, olo, ohi, slo)
-    if edge is not None:
-        edges += list(np.minimum(edge + (ohi - edge) * np.geomspace(1e-8, 1.0, _GRID), ohi))
+    if edge is not None and edge + margin < ohi:
+        steps = np.geomspace(_MARGIN * (ohi - olo) / (ohi - edge), 1.0, _GRID)
+        edges += list(np.minimum(edge + (ohi - edge) * steps, ohi))
     edges = sorted(set(edges))
     prof = {vo: profile(vo) for vo in edges}
     for vo in sorted(prof, key=prof.__getitem__)[:_KEEP]:
