@@ -449,7 +449,8 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         lines += [
             f"Judged through {eng.name}'s own shading (the engine witness: "
             f"{eng.witness.source}): the engine-rendered error is the largest error of what "
-            f"{eng.name} draws with these properties at the light's receivers.",
+            f"{eng.name} draws with these properties at the light's receivers, every "
+            f"operation rounded to {imported.scene.precision} (the scene's precision).",
             "",
         ]
         for c in choices:
