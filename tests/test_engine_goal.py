@@ -43,6 +43,7 @@ def test_engine_renders_what_the_answer_claims(engine):
                 assert rendered <= 1.05 * ans.imported.scene.tolerance, where
 
 
+@pytest.mark.slow
 def test_float32_answer_is_rendered_in_float32():
     """The Blender glTF room answered in float32 for glTF: the engine's rendering is judged
     in float32 (`EngineWitness.render`), the claim still what the engine draws."""

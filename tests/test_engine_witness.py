@@ -186,6 +186,22 @@ def test_gltf_against_the_spec():
     _check("gltf", p, ref)
 
 
+def test_render_at_the_scenes_precision():
+    """In float16 the glTF reference's 1/d^2 overflows 1 mm from the light (1e6 > 65504),
+    and its cone `c scale + offset` cancels (5.8 - 5.3 here: 11 bits of 5.8 leave 1% of
+    0.5, 2.6% off once squared); float32 keeps 24 bits; float64 is the formula itself."""
+    w = get_witness("gltf")
+    p = dict(range=10.0, innerConeAngle=0.2, outerConeAngle=0.6)
+    d, c, nl = np.array([0.001, 0.7, 3.3]), np.array([0.95, 0.9, 0.99]), np.array([1.0, 0.8, 0.6])
+    exact = w.render(p, d, c, nl, True)
+    half = w.render(p, d, c, nl, True, "float16")
+    single = w.render(p, d, c, nl, True, "float32")
+    assert np.isfinite(exact[0]) and np.isinf(half[0])
+    np.testing.assert_allclose(half[1:], exact[1:], rtol=0.05)
+    assert np.any(half[1:] != exact[1:])
+    np.testing.assert_allclose(single, exact, rtol=1e-6)
+
+
 # ------------------------------------------------------------------ answers judged by it
 _DISK = """
 tolerance = 0.05
