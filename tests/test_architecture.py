@@ -39,17 +39,6 @@ MAX_FUNCTION_LINES = 80
 #: when its function is split. Every function not listed here is held to the limit.
 LONG_FUNCTIONS = {
     "attenfit._fit._validate.validate_data",
-    "attenfit._report._build.build_report",
-    "attenfit._report._build._fit_rows",
-    "attenfit._report._configs.emitter_config",
-    "attenfit._report._cost_plot.plot_cost_vs_error",
-    "attenfit._report._fit_all.fit_all",
-    "attenfit._scenes._advice.plot_scene_errors",
-    "attenfit._scenes._advice.Recommendation.to_markdown",
-    "attenfit._scenes._files.load_mesh_scene",
-    "attenfit._scenes._lighting.light_truth",
-    "attenfit._scenes._usd._light",
-    "attenfit._truth._dataset.random_receivers",
 }
 
 
