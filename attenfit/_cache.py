@@ -50,6 +50,7 @@ LIMITS: dict[str | None, int] = {
     "compilers": 64 << 10,
     "compiled": 64 << 10,
     "worst": 16 << 10,
+    "export": 1 << 20,
     "solve": 64 << 20,
     None: 64 << 20,
 }
@@ -309,6 +310,13 @@ def _compiled_shape(counts: Any) -> str | None:
     return None
 
 
+def _export_shape(entry: Any) -> str | None:
+    """`attenfit export`'s printed text (`_cli._cmd_export`)."""
+    if not (isinstance(entry, dict) and set(entry) == {"text"} and isinstance(entry["text"], str)):
+        return "no exported text"
+    return None
+
+
 #: The kinds of entry that hold JSON, and their shape. "solve" holds `jax.export` bytes,
 #: which its reader deserialises and rebuilds when JAX cannot read them.
 _SHAPES: dict[str, Callable[[Any], str | None]] = {
@@ -316,6 +324,7 @@ _SHAPES: dict[str, Callable[[Any], str | None]] = {
     "compilers": _compilers_shape,
     "compiled": _compiled_shape,
     "worst": _worst_shape,
+    "export": _export_shape,
 }
 
 
