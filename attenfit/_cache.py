@@ -22,6 +22,7 @@ aside): a cache is an optimisation.
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import errno
 import functools
@@ -36,7 +37,17 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["LIMITS", "clear", "code_version", "folder", "info", "notice", "read", "write"]
+__all__ = [
+    "LIMITS",
+    "clear",
+    "code_version",
+    "fingerprint",
+    "folder",
+    "info",
+    "notice",
+    "read",
+    "write",
+]
 
 _MAGIC = b"attenfit-cache-1\n"
 _LIBRARIES = ("jax", "jaxlib", "equinox", "optimistix", "numpy")
@@ -44,13 +55,16 @@ _NOTICED: set[str] = set()
 
 #: The largest entry of each kind (bytes, header included); other kinds: `LIMITS[None]`.
 #: Measured: the families' descriptions 9 kB, a compiler's counts 0.2 kB, the compilers'
-#: versions 0.2 kB, a traced solve 50-80 kB.
+#: versions 0.2 kB, a traced solve 50-80 kB, an export 1-3 kB, a report's figure (PNG) 40-400
+#: kB, the witness section 60 kB.
 LIMITS: dict[str | None, int] = {
     "families": 1 << 20,
     "compilers": 64 << 10,
     "compiled": 64 << 10,
     "worst": 16 << 10,
     "export": 1 << 20,
+    "figure": 16 << 20,
+    "witness": 4 << 20,
     "solve": 64 << 20,
     None: 64 << 20,
 }
@@ -82,6 +96,52 @@ def code_version() -> str:
         except metadata.PackageNotFoundError:
             h.update(f"{name}=none".encode())
     return h.hexdigest()[:20]
+
+
+def fingerprint(*parts: Any) -> str:
+    """A hash of `parts`, to key an entry by the inputs of what it holds.
+
+    Walks None, numbers, text, bytes, lists, tuples, dicts (in key order), dataclasses
+    (equinox modules among them: type and fields) and arrays (anything with `__array__`:
+    dtype, shape and bytes, exactly). Anything else counts by its type and `repr`.
+    """
+    h = hashlib.sha256()
+    _feed(h, parts)
+    return h.hexdigest()[:40]
+
+
+def _feed(h, value: Any) -> None:
+    import dataclasses
+
+    if value is None or isinstance(value, bool | int | float | complex | str):
+        h.update(f"{type(value).__name__}:{value!r};".encode("utf-8", "surrogatepass"))
+    elif isinstance(value, bytes | bytearray):
+        h.update(b"bytes:%d;" % len(value) + bytes(value))
+    elif isinstance(value, dict):
+        h.update(b"dict:%d{" % len(value))
+        for k in sorted(value, key=repr):
+            _feed(h, k)
+            _feed(h, value[k])
+        h.update(b"}")
+    elif isinstance(value, list | tuple):
+        h.update(b"%s:%d[" % (type(value).__name__.encode(), len(value)))
+        for v in value:
+            _feed(h, v)
+        h.update(b"]")
+    elif hasattr(value, "__array__"):
+        import numpy as np
+
+        a = np.ascontiguousarray(np.asarray(value))
+        h.update(f"array:{a.dtype.str}:{a.shape};".encode())
+        h.update(a.tobytes() if a.dtype != object else repr(a.tolist()).encode())
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        h.update(f"{type(value).__module__}.{type(value).__qualname__}(".encode())
+        for field in dataclasses.fields(value):
+            h.update(field.name.encode() + b"=")
+            _feed(h, getattr(value, field.name, None))
+        h.update(b")")
+    else:
+        h.update(f"{type(value).__qualname__}:{value!r};".encode("utf-8", "surrogatepass"))
 
 
 def _entry(kind: str, key: str) -> Path:
@@ -317,6 +377,36 @@ def _export_shape(entry: Any) -> str | None:
     return None
 
 
+def _witness_shape(entry: Any) -> str | None:
+    """The report's Mitsuba witness (`_report._witness`): its numbers and its figure."""
+    if not (isinstance(entry, dict) and isinstance(entry.get("png"), str)):
+        return "no witness figure"
+    data = entry.get("data")
+    if not (
+        isinstance(data, dict)
+        and isinstance(data.get("variant"), str)
+        and all(_number(data.get(k)) for k in ("spp", "seconds", "n", "median_abs_z"))
+        and all(_number(data.get(k)) for k in ("max_abs_z", "expected_median_abs_z"))
+        and isinstance(data.get("sets"), list)
+        and all(map(_witness_set, data["sets"]))
+    ):
+        return "no witness numbers"
+    try:
+        base64.b64decode(entry["png"], validate=True)
+    except ValueError:
+        return "no witness figure"
+    return None
+
+
+def _witness_set(row: Any) -> bool:
+    keys = ("n", "median_abs_z", "max_abs_z", "median_rel_stderr")
+    return (
+        isinstance(row, dict)
+        and isinstance(row.get("label"), str)
+        and all(_number(row.get(k)) for k in keys)
+    )
+
+
 #: The kinds of entry that hold JSON, and their shape. "solve" holds `jax.export` bytes,
 #: which its reader deserialises and rebuilds when JAX cannot read them.
 _SHAPES: dict[str, Callable[[Any], str | None]] = {
@@ -325,6 +415,7 @@ _SHAPES: dict[str, Callable[[Any], str | None]] = {
     "compiled": _compiled_shape,
     "worst": _worst_shape,
     "export": _export_shape,
+    "witness": _witness_shape,
 }
 
 

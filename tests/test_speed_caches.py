@@ -5,12 +5,14 @@ must recompute."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from attenfit import _cache
@@ -93,3 +95,95 @@ def test_a_fit_file_export_is_keyed_by_the_file_bytes(cache_dir, tmp_path):
     fit.write_text(json.dumps({"family": "yuksel", "params": {"r": 0.75}}))
     _, changed, jax, _ = _export(cache_dir, str(fit), "--lang", "c")
     assert jax and changed != first and "0.75" in changed
+
+
+# ----------------------------------------------------------------------------- report figures
+def _small_report(**kw):
+    from attenfit import build_report
+
+    args = dict(families=["inverse_square", "yuksel"], sweep_n=16, plane_px=8, cost=False)
+    return build_report(**{**args, **kw})
+
+
+def test_a_second_report_draws_no_figure_and_a_changed_input_redraws(
+    cache_dir, tmp_path, monkeypatch
+):
+    from attenfit._report import _figures
+
+    drawn = []
+    to_bytes = _figures._to_bytes
+
+    def counted(fig, *args):
+        drawn.append(fig)
+        return to_bytes(fig, *args)
+
+    monkeypatch.setattr(_figures, "_to_bytes", counted)
+    report = _small_report()
+    first = report.write(tmp_path / "one")
+    pngs = sorted((first / "figures").glob("*.png"))
+    assert len(pngs) >= 8 and len(drawn) == len(pngs)
+    drawn.clear()
+    again = _small_report(figures_early=True)  # built again; the thread's path too
+    second = again.write(tmp_path / "two")
+    assert drawn == []
+    for png in pngs:
+        assert (second / "figures" / png.name).read_bytes() == png.read_bytes()
+    # corrupted figure entries are redrawn, never written
+    drawn.clear()
+    for entry in _entries(cache_dir, "figure"):
+        entry.write_bytes(entry.read_bytes()[:-10])
+    third = report.write(tmp_path / "three")
+    assert len(drawn) == len(pngs)
+    for png in pngs:
+        assert (third / "figures" / png.name).read_bytes() == png.read_bytes()
+    # one pixel of one light's truth changed: that light's plane figures only are redrawn
+    sphere = next(c for c in report.configs if c.name == "sphere")
+    truth = sphere.plane.E.copy()
+    truth[0, 0] *= 1.5
+    object.__setattr__(sphere, "plane", dataclasses.replace(sphere.plane, E=truth))
+    keys = []
+    monkeypatch.setattr(_figures, "DRAWN", keys)  # the keys of the figures drawn
+    report.write(tmp_path / "four")
+    assert sorted(keys) == ["sphere_plane_errors", "sphere_plane_side_by_side"]
+
+
+# ----------------------------------------------------------------------------- the witness
+def test_the_witness_is_rendered_once_for_the_same_lights(cache_dir, monkeypatch):
+    pytest.importorskip("data_gen.witness")
+    import data_gen.variants
+    import data_gen.witness
+    from attenfit._cli import _cmd_report
+    from attenfit._report import resolve_emitters
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_witness import _pair
+
+    renders = []
+
+    def render(emitters, **kw):
+        renders.append(sorted(emitters))
+        return [("sphere floor", *_pair(np.linspace(-1.0, 1.0, 50)))]
+
+    monkeypatch.setattr(data_gen.variants, "require_mitsuba", lambda: None)
+    monkeypatch.setattr(data_gen.witness, "render_witness", render)
+    emitters = resolve_emitters(None)
+    first = _cmd_report._Witness(emitters).result()
+    again = _cmd_report._Witness(emitters).result()
+    assert renders == [sorted(emitters)]
+    assert again.data == first.data and again.png == first.png
+    other = _cmd_report._Witness(resolve_emitters(["sphere"])).result()
+    assert len(renders) == 2 and other.data["n"] == first.data["n"]
+    # a corrupted entry is rendered again
+    for entry in _entries(cache_dir, "witness"):
+        entry.write_bytes(entry.read_bytes().replace(b'"spp": 64', b'"spp": 65'))
+    _cmd_report._Witness(emitters).result()
+    assert len(renders) == 3
+
+
+def test_a_witness_entry_of_the_wrong_shape_is_ignored(cache_dir, capsys):
+    from attenfit._report import cached_witness
+
+    key = "k"
+    assert _cache.write("witness", key, json.dumps({"data": {"n": 3}, "png": "AA=="}).encode())
+    assert cached_witness(key) is None
+    assert "no witness numbers" in capsys.readouterr().err
