@@ -65,6 +65,7 @@ LIMITS: dict[str | None, int] = {
     "export": 1 << 20,
     "figure": 16 << 20,
     "witness": 4 << 20,
+    "result": 16 << 20,
     "solve": 64 << 20,
     None: 64 << 20,
 }

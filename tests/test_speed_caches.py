@@ -187,3 +187,32 @@ def test_a_witness_entry_of_the_wrong_shape_is_ignored(cache_dir, capsys):
     assert _cache.write("witness", key, json.dumps({"data": {"n": 3}, "png": "AA=="}).encode())
     assert cached_witness(key) is None
     assert "no witness numbers" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- solve outputs
+def test_reused_solve_outputs_equal_a_solve_and_a_changed_input_solves(cache_dir, monkeypatch):
+    import attenfit as af
+    from attenfit._fit import _compiled, reuse_results
+
+    solves = []
+    solve = _compiled._OnHost._solve
+    monkeypatch.setattr(
+        _compiled._OnHost, "_solve", lambda self, *a: solves.append(1) or solve(self, *a)
+    )
+    d = np.geomspace(0.05, 10.0, 32)[None].repeat(3, 0)
+    t = 1 / (d**2 + np.array([[0.01], [0.02], [0.03]]))
+
+    def fits(target):
+        return af.fit_many(af.Yuksel(r=np.full(3, 0.1)), d, target).params["r"]
+
+    plain = fits(t)  # outside the context: solved, nothing kept
+    assert len(solves) == 1 and not _entries(cache_dir, "result")
+    with reuse_results():
+        first = fits(t)
+        again = fits(t)
+        assert len(solves) == 2 and np.array_equal(first, again) and np.array_equal(first, plain)
+        changed = fits(t * 1.01)  # another target: solved
+        assert len(solves) == 3 and not np.array_equal(changed, first)
+        for entry in _entries(cache_dir, "result"):  # corrupted: solved again, not trusted
+            entry.write_bytes(entry.read_bytes()[:-8] + b"\0" * 8)
+        assert np.array_equal(fits(t), first) and len(solves) == 4

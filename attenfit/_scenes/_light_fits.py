@@ -22,7 +22,7 @@ from .._curves import (
     spot_threejs,
 )
 from .._errors import AttenfitError
-from .._fit import fit, fit_many
+from .._fit import fit, fit_many, reuse_results
 from .._shaders import compiled_cost, measure_throughput, shade_in
 from ._scene import Scene
 from ._types import LightTruth
@@ -172,9 +172,10 @@ def fit_group(
     if cls.range_tie is not None:
         fn = _TIED_FNS.setdefault(cls.name, _Tied(cls))
         params = {"r": np.array([s["r"] for s in starts]), "R": np.array([s["R"] for s in starts])}
-        res = fit_many(
-            (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)
-        )
+        with reuse_results():  # an unchanged scene asked again: no solve
+            res = fit_many(
+                (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)
+            )
         out = []
         for k in range(len(datas)):
             r, R = float(res[k].params["r"]), float(starts[k]["R"])
@@ -183,7 +184,8 @@ def fit_group(
         return out
     batched = {p: np.array([s[p] for s in starts]) for p in cls.param_names()}
     model = cls(**batched, **knots_kw)
-    res = fit_many(model, D, T, weights=W, free=free)
+    with reuse_results():
+        res = fit_many(model, D, T, weights=W, free=free)
     return [(res[k].model, res[k].converged, res[k].message) for k in range(len(datas))]
 
 
