@@ -46,7 +46,9 @@ __all__ = [
     "info",
     "notice",
     "read",
+    "read_array",
     "write",
+    "write_array",
 ]
 
 _MAGIC = b"attenfit-cache-1\n"
@@ -66,6 +68,7 @@ LIMITS: dict[str | None, int] = {
     "figure": 16 << 20,
     "witness": 4 << 20,
     "result": 16 << 20,
+    "values": 16 << 20,
     "solve": 64 << 20,
     None: 64 << 20,
 }
@@ -270,6 +273,37 @@ def write(kind: str, key: str, payload: bytes) -> bool:
     except Exception:  # OSError (read-only, full, missing home), or anything else: skip it
         return False
     return True
+
+
+def read_array(kind: str, key: str) -> Any:
+    """The float array cached under (`kind`, `key`) as `.npy` bytes (`write_array`), or None;
+    an entry that is no float array (read without pickles) is ignored with a notice."""
+    import io
+
+    import numpy as np
+
+    payload = read(kind, key)
+    if payload is None:
+        return None
+    try:
+        value = np.load(io.BytesIO(payload), allow_pickle=False)
+    except (ValueError, OSError, EOFError):
+        value = None
+    if not isinstance(value, np.ndarray) or value.dtype.kind != "f":
+        notice(f"ignoring a cache entry that holds no float array ({kind}); it will be rebuilt")
+        return None
+    return value
+
+
+def write_array(kind: str, key: str, value: Any) -> bool:
+    """Cache the float array `value` under (`kind`, `key`) as `.npy` bytes (`read_array`)."""
+    import io
+
+    import numpy as np
+
+    buf = io.BytesIO()
+    np.save(buf, np.asarray(value), allow_pickle=False)
+    return write(kind, key, buf.getvalue())
 
 
 def _make_folders(target: Path) -> None:

@@ -216,3 +216,26 @@ def test_reused_solve_outputs_equal_a_solve_and_a_changed_input_solves(cache_dir
         for entry in _entries(cache_dir, "result"):  # corrupted: solved again, not trusted
             entry.write_bytes(entry.read_bytes()[:-8] + b"\0" * 8)
         assert np.array_equal(fits(t), first) and len(solves) == 4
+
+
+def test_a_scene_reference_curve_is_cached_by_model_and_points(cache_dir):
+    import jax
+
+    import attenfit as af
+    from attenfit._scenes._light_fits import shade
+
+    d = np.geomspace(0.05, 10.0, 40)
+    r = 0.3
+    s = np.sqrt(d * d + r * r)
+    closed = 2 / (s * (s + d))  # Yuksel 2020, eq. 7
+    with jax.enable_x64(True):
+        first = shade(af.Yuksel(r=r), d, "float64")
+        (entry,) = _entries(cache_dir, "values")
+        again = shade(af.Yuksel(r=r), d, "float64")
+        other = shade(af.Yuksel(r=0.2), d, "float64")  # another model: computed, kept apart
+    np.testing.assert_allclose(first, closed, rtol=1e-12)
+    assert np.array_equal(again, first) and len(_entries(cache_dir, "values")) == 2
+    assert not np.allclose(other, first)
+    entry.write_bytes(entry.read_bytes()[:-8] + b"\0" * 8)  # corrupted: computed again
+    with jax.enable_x64(True):
+        assert np.array_equal(shade(af.Yuksel(r=r), d, "float64"), first)

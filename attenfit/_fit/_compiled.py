@@ -10,7 +10,6 @@ it. Tracing a solve costs 0.5-2 s; loading it back, about 0.1-0.3 s.
 from __future__ import annotations
 
 import contextlib
-import io
 import math
 from collections.abc import Callable, Iterator
 from typing import Any
@@ -45,12 +44,10 @@ class _OnHost:
         if not _REUSE or self.key is None:
             return self._solve(*args)
         ident = _cache.fingerprint(self.key, jax.config.jax_enable_x64, args)
-        out = _from_npy(_cache.read("result", ident))
-        if out is None:
+        out = _cache.read_array("result", ident)
+        if out is None or out.ndim not in (1, 2):
             out = self._solve(*args)
-            buf = io.BytesIO()
-            np.save(buf, out, allow_pickle=False)
-            _cache.write("result", ident, buf.getvalue())
+            _cache.write_array("result", ident, out)
         return out
 
     def _solve(self, *args) -> np.ndarray:
@@ -83,21 +80,6 @@ def reuse_results() -> Iterator[None]:
         yield
     finally:
         _REUSE.pop()
-
-
-def _from_npy(blob: bytes | None) -> np.ndarray | None:
-    """The packed outputs cached as `.npy` bytes; None for none, or for bytes that are not
-    a float array (`np.load` without pickles)."""
-    if blob is None:
-        return None
-    try:
-        out = np.load(io.BytesIO(blob), allow_pickle=False)
-    except (ValueError, OSError, EOFError):
-        out = None
-    if not isinstance(out, np.ndarray) or out.dtype.kind != "f" or out.ndim not in (1, 2):
-        _cache.notice("ignoring a cache entry that holds no solve's outputs; it will be rebuilt")
-        return None
-    return out
 
 
 #: Problems per vmapped chunk in `fit_many`: chunks run one after another (`lax.map`), and
