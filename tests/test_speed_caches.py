@@ -239,3 +239,20 @@ def test_a_scene_reference_curve_is_cached_by_model_and_points(cache_dir):
     entry.write_bytes(entry.read_bytes()[:-8] + b"\0" * 8)  # corrupted: computed again
     with jax.enable_x64(True):
         assert np.array_equal(shade(af.Yuksel(r=r), d, "float64"), first)
+
+
+def test_minor_log_labels_follow_the_view_span():
+    from attenfit._report import plain_log_ticks
+    from attenfit._report._plots import new_figure
+
+    ax = new_figure((3, 3)).subplots()
+    ax.set_yscale("log")
+    plain_log_ticks(ax.yaxis)
+    minor = ax.yaxis.get_minor_formatter()
+    ax.set_ylim(2, 5)  # under 3 times: every minor tick labelled
+    assert minor.format_ticks([2, 3, 4, 5]) == ["2", "3", "4", "5"]
+    ax.set_ylim(2, 9)  # 3 to 10 times: 2 and 5 times a decade only
+    assert minor.format_ticks([2, 3, 5, 8]) == ["2", "", "5", ""]
+    assert minor(5.0) == "5"
+    ax.set_ylim(0.01, 100)  # a decade or more: the decades' labels only
+    assert minor.format_ticks([0.02, 0.5, 3]) == ["", "", ""]
