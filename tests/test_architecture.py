@@ -35,11 +35,6 @@ BASE = (
 MAX_LINES = 600
 #: Longest function allowed, in lines (its `def` line to its last, docstring included).
 MAX_FUNCTION_LINES = 80
-#: Functions still longer than that, being split by other helpers (issue 26): remove an entry
-#: when its function is split. Every function not listed here is held to the limit.
-LONG_FUNCTIONS = {
-    "attenfit._fit._validate.validate_data",
-}
 
 
 def _stage(module: str) -> str:
@@ -244,11 +239,7 @@ def _function_lengths(module: str) -> dict[str, int]:
 
 @pytest.mark.parametrize("module", sorted(GRAPH))
 def test_functions_are_short_enough_to_read(module):
-    long = {
-        name: n
-        for name, n in _function_lengths(module).items()
-        if n > MAX_FUNCTION_LINES and name not in LONG_FUNCTIONS
-    }
+    long = {name: n for name, n in _function_lengths(module).items() if n > MAX_FUNCTION_LINES}
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
 
 
