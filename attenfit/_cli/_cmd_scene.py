@@ -66,7 +66,11 @@ def add_parser(sub, parents: list) -> None:
     )
     g.add_argument("--samples", type=int, help="receivers per light (default 4096)")
     g.add_argument("--radius", type=float, help="radius (m) of every light the file gives none")
-    g.add_argument("--strict", action="store_true", help="refuse rect, dome, cylinder lights")
+    g.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse lights attenfit cannot model (dome, distant, shaped rect, ...) instead of skipping them",
+    )
     g.add_argument(
         "--time",
         type=float,
