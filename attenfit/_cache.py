@@ -22,6 +22,7 @@ aside): a cache is an optimisation.
 
 from __future__ import annotations
 
+import base64
 import contextlib
 import errno
 import functools
@@ -36,7 +37,19 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-__all__ = ["LIMITS", "clear", "code_version", "folder", "info", "notice", "read", "write"]
+__all__ = [
+    "LIMITS",
+    "clear",
+    "code_version",
+    "fingerprint",
+    "folder",
+    "info",
+    "notice",
+    "read",
+    "read_array",
+    "write",
+    "write_array",
+]
 
 _MAGIC = b"attenfit-cache-1\n"
 _LIBRARIES = ("jax", "jaxlib", "equinox", "optimistix", "numpy")
@@ -44,12 +57,18 @@ _NOTICED: set[str] = set()
 
 #: The largest entry of each kind (bytes, header included); other kinds: `LIMITS[None]`.
 #: Measured: the families' descriptions 9 kB, a compiler's counts 0.2 kB, the compilers'
-#: versions 0.2 kB, a traced solve 50-80 kB.
+#: versions 0.2 kB, a traced solve 50-80 kB, an export 1-3 kB, a report's figure (PNG) 40-400
+#: kB, the witness section 60 kB.
 LIMITS: dict[str | None, int] = {
     "families": 1 << 20,
     "compilers": 64 << 10,
     "compiled": 64 << 10,
     "worst": 16 << 10,
+    "export": 1 << 20,
+    "figure": 16 << 20,
+    "witness": 4 << 20,
+    "result": 16 << 20,
+    "values": 16 << 20,
     "solve": 64 << 20,
     None: 64 << 20,
 }
@@ -81,6 +100,52 @@ def code_version() -> str:
         except metadata.PackageNotFoundError:
             h.update(f"{name}=none".encode())
     return h.hexdigest()[:20]
+
+
+def fingerprint(*parts: Any) -> str:
+    """A hash of `parts`, to key an entry by the inputs of what it holds.
+
+    Walks None, numbers, text, bytes, lists, tuples, dicts (in key order), dataclasses
+    (equinox modules among them: type and fields) and arrays (anything with `__array__`:
+    dtype, shape and bytes, exactly). Anything else counts by its type and `repr`.
+    """
+    h = hashlib.sha256()
+    _feed(h, parts)
+    return h.hexdigest()[:40]
+
+
+def _feed(h, value: Any) -> None:
+    import dataclasses
+
+    if value is None or isinstance(value, bool | int | float | complex | str):
+        h.update(f"{type(value).__name__}:{value!r};".encode("utf-8", "surrogatepass"))
+    elif isinstance(value, bytes | bytearray):
+        h.update(b"bytes:%d;" % len(value) + bytes(value))
+    elif isinstance(value, dict):
+        h.update(b"dict:%d{" % len(value))
+        for k in sorted(value, key=repr):
+            _feed(h, k)
+            _feed(h, value[k])
+        h.update(b"}")
+    elif isinstance(value, list | tuple):
+        h.update(b"%s:%d[" % (type(value).__name__.encode(), len(value)))
+        for v in value:
+            _feed(h, v)
+        h.update(b"]")
+    elif hasattr(value, "__array__"):
+        import numpy as np
+
+        a = np.ascontiguousarray(np.asarray(value))
+        h.update(f"array:{a.dtype.str}:{a.shape};".encode())
+        h.update(a.tobytes() if a.dtype != object else repr(a.tolist()).encode())
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        h.update(f"{type(value).__module__}.{type(value).__qualname__}(".encode())
+        for field in dataclasses.fields(value):
+            h.update(field.name.encode() + b"=")
+            _feed(h, getattr(value, field.name, None))
+        h.update(b")")
+    else:
+        h.update(f"{type(value).__qualname__}:{value!r};".encode("utf-8", "surrogatepass"))
 
 
 def _entry(kind: str, key: str) -> Path:
@@ -210,6 +275,37 @@ def write(kind: str, key: str, payload: bytes) -> bool:
     return True
 
 
+def read_array(kind: str, key: str) -> Any:
+    """The float array cached under (`kind`, `key`) as `.npy` bytes (`write_array`), or None;
+    an entry that is no float array (read without pickles) is ignored with a notice."""
+    import io
+
+    import numpy as np
+
+    payload = read(kind, key)
+    if payload is None:
+        return None
+    try:
+        value = np.load(io.BytesIO(payload), allow_pickle=False)
+    except (ValueError, OSError, EOFError):
+        value = None
+    if not isinstance(value, np.ndarray) or value.dtype.kind != "f":
+        notice(f"ignoring a cache entry that holds no float array ({kind}); it will be rebuilt")
+        return None
+    return value
+
+
+def write_array(kind: str, key: str, value: Any) -> bool:
+    """Cache the float array `value` under (`kind`, `key`) as `.npy` bytes (`read_array`)."""
+    import io
+
+    import numpy as np
+
+    buf = io.BytesIO()
+    np.save(buf, np.asarray(value), allow_pickle=False)
+    return write(kind, key, buf.getvalue())
+
+
 def _make_folders(target: Path) -> None:
     """Make `target` and the folders between it and the cache's root, replacing any link
     or other non-folder found among them (the root itself is the user's to choose)."""
@@ -309,6 +405,43 @@ def _compiled_shape(counts: Any) -> str | None:
     return None
 
 
+def _export_shape(entry: Any) -> str | None:
+    """`attenfit export`'s printed text (`_cli._cmd_export`)."""
+    if not (isinstance(entry, dict) and set(entry) == {"text"} and isinstance(entry["text"], str)):
+        return "no exported text"
+    return None
+
+
+def _witness_shape(entry: Any) -> str | None:
+    """The report's Mitsuba witness (`_report._witness`): its numbers and its figure."""
+    if not (isinstance(entry, dict) and isinstance(entry.get("png"), str)):
+        return "no witness figure"
+    data = entry.get("data")
+    if not (
+        isinstance(data, dict)
+        and isinstance(data.get("variant"), str)
+        and all(_number(data.get(k)) for k in ("spp", "seconds", "n", "median_abs_z"))
+        and all(_number(data.get(k)) for k in ("max_abs_z", "expected_median_abs_z"))
+        and isinstance(data.get("sets"), list)
+        and all(map(_witness_set, data["sets"]))
+    ):
+        return "no witness numbers"
+    try:
+        base64.b64decode(entry["png"], validate=True)
+    except ValueError:
+        return "no witness figure"
+    return None
+
+
+def _witness_set(row: Any) -> bool:
+    keys = ("n", "median_abs_z", "max_abs_z", "median_rel_stderr")
+    return (
+        isinstance(row, dict)
+        and isinstance(row.get("label"), str)
+        and all(_number(row.get(k)) for k in keys)
+    )
+
+
 #: The kinds of entry that hold JSON, and their shape. "solve" holds `jax.export` bytes,
 #: which its reader deserialises and rebuilds when JAX cannot read them.
 _SHAPES: dict[str, Callable[[Any], str | None]] = {
@@ -316,6 +449,8 @@ _SHAPES: dict[str, Callable[[Any], str | None]] = {
     "compilers": _compilers_shape,
     "compiled": _compiled_shape,
     "worst": _worst_shape,
+    "export": _export_shape,
+    "witness": _witness_shape,
 }
 
 

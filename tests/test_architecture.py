@@ -35,22 +35,6 @@ BASE = (
 MAX_LINES = 600
 #: Longest function allowed, in lines (its `def` line to its last, docstring included).
 MAX_FUNCTION_LINES = 80
-#: Functions still longer than that, being split by other helpers (issue 26): remove an entry
-#: when its function is split. Every function not listed here is held to the limit.
-LONG_FUNCTIONS = {
-    "attenfit._fit._validate.validate_data",
-    "attenfit._report._build.build_report",
-    "attenfit._report._build._fit_rows",
-    "attenfit._report._configs.emitter_config",
-    "attenfit._report._cost_plot.plot_cost_vs_error",
-    "attenfit._report._fit_all.fit_all",
-    "attenfit._scenes._advice.plot_scene_errors",
-    "attenfit._scenes._advice.Recommendation.to_markdown",
-    "attenfit._scenes._files.load_mesh_scene",
-    "attenfit._scenes._lighting.light_truth",
-    "attenfit._scenes._usd._light",
-    "attenfit._truth._dataset.random_receivers",
-}
 
 
 def _stage(module: str) -> str:
@@ -255,11 +239,7 @@ def _function_lengths(module: str) -> dict[str, int]:
 
 @pytest.mark.parametrize("module", sorted(GRAPH))
 def test_functions_are_short_enough_to_read(module):
-    long = {
-        name: n
-        for name, n in _function_lengths(module).items()
-        if n > MAX_FUNCTION_LINES and name not in LONG_FUNCTIONS
-    }
+    long = {name: n for name, n in _function_lengths(module).items() if n > MAX_FUNCTION_LINES}
     assert not long, f"functions over {MAX_FUNCTION_LINES} lines: {long}"
 
 

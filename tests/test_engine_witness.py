@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pytest
+from _engine_code import SPOT_TOML
 
 from attenfit._judge import get_witness
 from attenfit._scenes import Scene
@@ -185,6 +186,22 @@ def test_gltf_against_the_spec():
     _check("gltf", p, ref)
 
 
+def test_render_at_the_scenes_precision():
+    """In float16 the glTF reference's 1/d^2 overflows 1 mm from the light (1e6 > 65504),
+    and its cone `c scale + offset` cancels (5.8 - 5.3 here: 11 bits of 5.8 leave 1% of
+    0.5, 2.6% off once squared); float32 keeps 24 bits; float64 is the formula itself."""
+    w = get_witness("gltf")
+    p = dict(range=10.0, innerConeAngle=0.2, outerConeAngle=0.6)
+    d, c, nl = np.array([0.001, 0.7, 3.3]), np.array([0.95, 0.9, 0.99]), np.array([1.0, 0.8, 0.6])
+    exact = w.render(p, d, c, nl, True)
+    half = w.render(p, d, c, nl, True, "float16")
+    single = w.render(p, d, c, nl, True, "float32")
+    assert np.isfinite(exact[0]) and np.isinf(half[0])
+    np.testing.assert_allclose(half[1:], exact[1:], rtol=0.05)
+    assert np.any(half[1:] != exact[1:])
+    np.testing.assert_allclose(single, exact, rtol=1e-6)
+
+
 # ------------------------------------------------------------------ answers judged by it
 _DISK = """
 tolerance = 0.05
@@ -196,21 +213,6 @@ normal = [0, 0, -1]
 [[receivers]]
 kind = "plane"
 extent = 3.0
-resolution = 24
-"""
-
-_SPOT = """
-tolerance = 0.05
-[[lights]]
-kind = "spot"
-radius = 0.05
-height = 3.0
-umbra = {umbra}
-penumbra = {penumbra}
-profile = "threejs"
-[[receivers]]
-kind = "plane"
-extent = {extent}
 resolution = 24
 """
 
@@ -273,7 +275,11 @@ def test_disk_claim_is_what_the_engine_renders(tmp_path, engine):
 def test_godot_spot_has_its_own_cone_and_honest_verdict(tmp_path):
     """Issue: a 30-degree spot was passed at 4.8% with no spot_angle_attenuation; Godot's
     own cone renders ~27% off at best: "fail" with the closest settings."""
-    ans = _answer(tmp_path, _SPOT.format(umbra=30, penumbra=25, extent=2.5), "godot")
+    ans = _answer(
+        tmp_path,
+        SPOT_TOML.format(umbra=30, penumbra=25, extent=2.5, resolution=24, profile="threejs"),
+        "godot",
+    )
     (c,) = ans.choices
     p = c.properties
     assert "spot_angle_attenuation" in p
@@ -285,7 +291,7 @@ def test_godot_spot_has_its_own_cone_and_honest_verdict(tmp_path):
 def test_unreal_90_degree_spot_fails(tmp_path):
     """Issue: Unreal clamps the outer cone to 89 deg + 0.001 rad; a hemisphere spot lit to
     grazing is cut there: the answer is "fail", never "closest 11%"."""
-    text = _SPOT.format(umbra=89.9, penumbra=80, extent=30.0).replace("threejs", "aperture")
+    text = SPOT_TOML.format(umbra=89.9, penumbra=80, extent=30.0, resolution=24, profile="aperture")
     ans = _answer(tmp_path, text, "unreal")
     (c,) = ans.choices
     assert c.status == "fail"

@@ -134,7 +134,14 @@ def test_maya_usd_lights_read_at_the_start_time_code(capsys):
         assert [x["name"] for x in ans["lights"]] == [
             "/LightsTest/pointLight1",
             "/LightsTest/spotLight1",
+            "/LightsTest/areaLight1",
+            "/LightsTest/NonMaterialsScope/NonRootRectLight",
         ]
+        # the RectLights: UsdLux's default 1 x 1 width and height, times the time-sampled
+        # scale (4, 3, 2), in centimetres (metersPerUnit 0.01); translate (8, 0, 10) cm
+        rect = dict(zip(im.names, im.scene.lights, strict=True))["/LightsTest/areaLight1"]
+        assert rect.kind == "rect" and rect.size == pytest.approx((0.04, 0.03))
+        assert rect.position == pytest.approx((0.08, 0.0, 0.10))
     assert spot.position == pytest.approx((0.075, 0.05, 0.0), abs=1e-12)  # at time 3
 
 

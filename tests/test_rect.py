@@ -13,6 +13,7 @@ import jax.numpy as jnp
 import mpmath
 import numpy as np
 import pytest
+from _splits import graded_splits
 
 from attenfit import BadValueError
 from attenfit._truth import RectEmitter, emitter_from_dict, irradiance
@@ -41,14 +42,7 @@ def _howell_parallel(x: float, y: float, z: float) -> float:
 
 
 def _splits(lo, hi, at, z) -> list:
-    """`lo`, `hi` and points geometrically closer to `at` (the foot of the receiver, where
-    the integrand peaks over a width z), inside (lo, hi): each panel then resolves."""
-    pts = {lo, hi}
-    for k in range(12):
-        for x in (at - z * 10**k, at, at + z * 10**k):
-            if lo < x < hi:
-                pts.add(x)
-    return sorted(pts)
+    return graded_splits(lo, hi, at, z, 10, 12)
 
 
 def _mp_irradiance(e: RectEmitter, p, n, dps: int = 20) -> float:

@@ -418,7 +418,7 @@ def test_file_options_refused_for_toml(capsys):
 def test_engine_restricts_a_toml_scene(capsys):
     code, text, _ = _run(capsys, EXAMPLE / "room.toml", "--engine", "unity", "--json")
     assert code == 0
-    rec = json.loads(text)
+    rec = json.loads(text)["recommendation"]  # a per-light engine answer (`answer_scene`)
     assert [c["family"] for c in rec["candidates"]] == ["frostbite_window"]
     # Unity URP clamps d^2 at HALF_MIN = 2^-14: r_min = 2^-7 m, fixed, not fitted
     assert all(p["r_min"] == 2.0**-7 for p in rec["candidates"][0]["params"])

@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import mpmath
 import numpy as np
 import pytest
+from _splits import graded_splits
 from scipy.optimize import brentq
 
 from attenfit import BadValueError
@@ -38,14 +39,7 @@ def _frame(e):
 
 
 def _splits(lo, hi, at, w) -> list:
-    """`lo`, `hi` and points geometrically closer to `at`, where the integrand peaks over a
-    width `w`: each panel then resolves it."""
-    pts = {lo, hi}
-    for k in range(16):
-        for x in (at - w * 4.0**k, at, at + w * 4.0**k):
-            if lo < x < hi:
-                pts.add(x)
-    return sorted(pts)
+    return graded_splits(lo, hi, at, w, 4.0, 16)
 
 
 def _gl(lo, hi, at, w):

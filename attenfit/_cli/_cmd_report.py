@@ -184,9 +184,14 @@ class _Witness:
     def __init__(self, emitters):
         import threading
 
+        from .._report import cached_witness, witness_key
+
         self.emitters, self.value, self.error, self.seconds = emitters, None, None, 0.0
+        self.key = witness_key(emitters, "data_gen", call="render_witness(emitters), x64")
+        self.cached = cached_witness(self.key)  # the same lights and renderer: no render
         self.thread = threading.Thread(target=self._run, name="mitsuba-witness", daemon=True)
-        self.thread.start()
+        if self.cached is None:
+            self.thread.start()
 
     def _run(self) -> None:
         import time
@@ -209,8 +214,10 @@ class _Witness:
         """The report's witness section, or None (with a notice) without data_gen or Mitsuba."""
         import sys
 
-        from .._report import witness_section
+        from .._report import store_witness, witness_section
 
+        if self.cached is not None:
+            return self.cached
         if self.thread.is_alive():
             _progress.stage("waiting for the Mitsuba witness")
         self.thread.join()
@@ -222,4 +229,6 @@ class _Witness:
             return None
         if self.error is not None:
             raise self.error
-        return witness_section(self.value, seconds=self.seconds)
+        section = witness_section(self.value, seconds=self.seconds)
+        store_witness(self.key, section)
+        return section

@@ -66,7 +66,11 @@ def add_parser(sub, parents: list) -> None:
     )
     g.add_argument("--samples", type=int, help="receivers per light (default 4096)")
     g.add_argument("--radius", type=float, help="radius (m) of every light the file gives none")
-    g.add_argument("--strict", action="store_true", help="refuse rect, dome, cylinder lights")
+    g.add_argument(
+        "--strict",
+        action="store_true",
+        help="refuse lights attenfit cannot model (dome, distant, shaped rect, ...) instead of skipping them",
+    )
     g.add_argument(
         "--time",
         type=float,
@@ -87,7 +91,7 @@ def add_parser(sub, parents: list) -> None:
 def _run_scene(args: argparse.Namespace) -> int:
     from .._atomic import check_distinct
     from .._fit import enable_persistent_cache
-    from .._scenes import Scene, engine_scene, is_mesh_scene, recommend
+    from .._scenes import Scene, is_mesh_scene, recommend
 
     mesh = is_mesh_scene(args.file)
     if not mesh:
@@ -119,9 +123,7 @@ def _run_scene(args: argparse.Namespace) -> int:
         return code
     scene = Scene.load(args.file)
     if args.engine is not None:
-        from .._scenes import get_engine
-
-        scene = engine_scene(scene, get_engine(args.engine))
+        return _run_engine(args, scene)
     rec = recommend(scene, measure=args.measure)
     if args.json:
         print(json.dumps(rec.to_dict(), indent=2))
@@ -133,6 +135,14 @@ def _run_scene(args: argparse.Namespace) -> int:
     wrote = f"; wrote {args.out}" if args.out is not None else ""
     _progress.done(f"{rec.summary()}{wrote}")
     return EXIT_OK
+
+
+def _run_engine(args: argparse.Namespace, scene) -> int:
+    """A TOML scene with `--engine`: answered per light as a file is (`answer_scene`): each
+    light's engine properties and the error the engine renders with them."""
+    from .._scenes import answer_scene
+
+    return _print_answer(args, answer_scene(scene, args.engine, measure=args.measure))
 
 
 def _run_file(args: argparse.Namespace) -> int:
@@ -151,6 +161,12 @@ def _run_file(args: argparse.Namespace) -> int:
         strict=True if args.strict else None,
         time=args.time,
     )
+    return _print_answer(args, ans)
+
+
+def _print_answer(args: argparse.Namespace, ans) -> int:
+    """Print a per-light answer (Markdown, or JSON with `--json`), write `--out` and
+    `--write-back` where asked."""
     if args.json:
         print(json.dumps(ans.to_dict(), indent=2))
     else:

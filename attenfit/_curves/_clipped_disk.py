@@ -72,6 +72,16 @@ def _nonzero(x):
     return jnp.where(x > 0, x, jnp.ones_like(x))
 
 
+def _tilt(d, cos_r, cos_e, cos_n):
+    """`(w, nx)`: the sine of the normal's tilt from the disk's axis and its component toward
+    the receiver's foot (module docstring). `w` is at least `|nx|`: below a tilt of 1e-8 rad
+    `cos_n` rounds to 1 and carries no tilt, while `cos_r` still does (a receiver just in
+    front of the disk whose horizon cuts it)."""
+    st = d * safe_sqrt((1 - cos_e) * (1 + cos_e))
+    nx = jnp.where(st > 0, jnp.clip((d * cos_e * cos_n - d * cos_r) / _nonzero(st), -1, 1), 0 * st)
+    return jnp.maximum(safe_sqrt((1 - cos_n) * (1 + cos_n)), jnp.abs(nx)), nx
+
+
 def _contour(d, cos_r, cos_e, r, cos_n):
     """`E / I` of the one-sided disk by the contour of its visible part (module docstring),
     for receivers in front of it."""
@@ -80,8 +90,7 @@ def _contour(d, cos_r, cos_e, r, cos_n):
     zt = dt * cos_e
     st = dt * safe_sqrt((1 - cos_e) * (1 + cos_e))
     nz = -cos_n
-    w = safe_sqrt((1 - cos_n) * (1 + cos_n))
-    nx = jnp.where(st > 0, jnp.clip((zt * cos_n - dt * cos_r) / _nonzero(st), -w, w), 0 * st)
+    w, nx = _tilt(d, cos_r, cos_e, cos_n)
     ny = safe_sqrt((w - nx) * (w + nx))
     rho = 2 * rt * st
     a1 = zt * zt + (st - rt) ** 2  # 1 - rho, without the cancellation
@@ -143,7 +152,7 @@ class ClippedDisk(AreaModel):
         # wholly above the horizon: the vector irradiance (exact, and free of the contour's
         # cancellation in front of the disk's plane, where E is small)
         above = VectorDisk(clip="clamp").irradiance(d, cos_r, cos_e, r, cos_n, g)
-        w = safe_sqrt((1 - cos_n) * (1 + cos_n))
+        w, _ = _tilt(d, cos_r, cos_e, cos_n)
         cut = (jnp.abs(d * cos_r) < r * w) & (cos_e > 0) & (d > 0)
         zero = jnp.zeros_like(d)
         e = _contour(d, jnp.where(cut, cos_r, zero), jnp.where(cut, cos_e, zero + 1), r,
@@ -207,8 +216,9 @@ def _contour_form(let: Lets, x: dict[str, Ref], r: Ref) -> Expr:
     inv = let("inv_lam", 1.0 / fn("sqrt", d * d + r * r))
     rt, zt = let("rt", r * inv), let("zt", d * inv * cos_e)
     st = let("st", d * inv * fn("sqrt", fn("max", (1.0 - cos_e) * (1.0 + cos_e), 0.0)))
-    w = let("w", fn("sqrt", fn("max", (1.0 - cos_n) * (1.0 + cos_n), 1e-30)))
-    nx = let("nx", fn("clamp", (zt * cos_n - d * inv * cos_r) / fn("max", st, 1e-30), -w, w))
+    nx = let("nx", fn("clamp", (zt * cos_n - d * inv * cos_r) / fn("max", st, 1e-30), -1.0, 1.0))
+    tilt = fn("sqrt", fn("max", (1.0 - cos_n) * (1.0 + cos_n), 1e-30))
+    w = let("w", fn("max", tilt, fn("abs", nx)))  # `_tilt`: at least |nx|
     ny = let("ny", fn("sqrt", fn("max", (w - nx) * (w + nx), 0.0)))
     rho = let("rho", 2.0 * rt * st)
     a1 = let("a1", zt * zt + (st - rt) * (st - rt))

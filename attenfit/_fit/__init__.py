@@ -10,6 +10,7 @@ from ._api import fit as fit
 from ._api import fit_dataset as fit_dataset
 from ._api import fit_many as fit_many
 from ._compile_cache import enable_persistent_cache as enable_persistent_cache
+from ._compiled import reuse_results as reuse_results
 
 # For the report stage's combined fit of many families in one solve.
 from ._reparam import to_internal as to_internal

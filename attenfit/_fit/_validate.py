@@ -99,24 +99,33 @@ def validate_data(
             f"of {float(t_hi)!r}; rescale the target"
         )
     if weights is not None:
-        weights = float_array("weights", weights)
-        if weights.shape != target.shape and not (ndim == 2 and weights.shape == target.shape[1:]):
-            raise BadValueError(
-                f"weights has shape {weights.shape} but target has shape {target.shape}; they must match"
-            )
-        if not (weights.min() >= 0 and weights.max() < math.inf):
-            bad = weights[~(np.isfinite(weights) & (weights >= 0))].flat[0].item()
-            raise BadValueError(f"weights must be finite and >= 0, got {bad!r}")
-        if not np.all(np.any(weights > 0, axis=-1)):
-            raise BadValueError("weights are all 0 (in at least one problem); nothing to fit")
-        w_pos = weights[weights > 0]
-        if not (lo <= w_pos.min() and w_pos.max() <= hi):
-            bad = w_pos[(w_pos < lo) | (w_pos > hi)].flat[0].item()
-            raise BadValueError(
-                f"weights must lie within [{lo:.0e}, {hi:.0e}] (or be 0) for a fit to be judged, "
-                f"got {bad!r}; rescale them (only their ratios matter)"
-            )
+        weights = _checked_weights(weights, target.shape, ndim, lo, hi)
     return d, target, weights
+
+
+def _checked_weights(
+    weights: Any, shape: tuple[int, ...], ndim: int, lo: float, hi: float
+) -> np.ndarray:
+    """`weights` checked against the target's `shape`: finite, >= 0, some positive in each
+    problem, and the positive ones within [lo, hi] (their squares normal floats)."""
+    weights = float_array("weights", weights)
+    if weights.shape != shape and not (ndim == 2 and weights.shape == shape[1:]):
+        raise BadValueError(
+            f"weights has shape {weights.shape} but target has shape {shape}; they must match"
+        )
+    if not (weights.min() >= 0 and weights.max() < math.inf):
+        bad = weights[~(np.isfinite(weights) & (weights >= 0))].flat[0].item()
+        raise BadValueError(f"weights must be finite and >= 0, got {bad!r}")
+    if not np.all(np.any(weights > 0, axis=-1)):
+        raise BadValueError("weights are all 0 (in at least one problem); nothing to fit")
+    w_pos = weights[weights > 0]
+    if not (lo <= w_pos.min() and w_pos.max() <= hi):
+        bad = w_pos[(w_pos < lo) | (w_pos > hi)].flat[0].item()
+        raise BadValueError(
+            f"weights must lie within [{lo:.0e}, {hi:.0e}] (or be 0) for a fit to be judged, "
+            f"got {bad!r}; rescale them (only their ratios matter)"
+        )
+    return weights
 
 
 def validate_options(

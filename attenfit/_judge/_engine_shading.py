@@ -12,8 +12,9 @@ stands in for the cosine), and the cone properties a fit of the engine's setting
 
 `render(props, d, cos_s, n_dot_l, spot)` is the irradiance per unit intensity that the
 engine computes: `E / I = distance(d) * cone(cos_s) * diffuse(n.l, d)` (a spot's cone only
-when the light is a spot in the engine), in float64 NumPy, with the engine's CPU-side
-constants rounded as the engine rounds them (float32). `engine_receiver_errors` is the judged
+when the light is a spot in the engine), in NumPy at the scene's precision (float64,
+float32 or float16: every operation rounded to it, as attenfit's own curve is judged), with
+the engine's CPU-side constants rounded as the engine rounds them (float32). `engine_receiver_errors` is the judged
 error of those values against the exact irradiance at a scene's receivers; the worst case
 over a scene's receivers (a finite set) is its maximum.
 """
@@ -66,8 +67,10 @@ class EngineWitness(abc.ABC):
     (the `--engine` name), `source` (files and functions), `size_effect` (what a light's
     size does to the diffuse term, in words), `emission_cosine` (False for every punctual
     light), `cone_props` (the spot cone's properties a fit of the engine's settings may
-    move, each `(name, low, high)` in the property's own unit; empty: no spot cone), `range_prop` (the
-    property holding the range, None where the engine has none)."""
+    move, each `(name, low, high)` in the property's own unit; empty: no spot cone),
+    `cone_log` (those searched on a log scale), `cone_outer` (the one that sets the cone's
+    outer edge), `range_prop` (the property holding the
+    range, None where the engine has none)."""
 
     name: ClassVar[str]
     source: ClassVar[str]
@@ -75,6 +78,10 @@ class EngineWitness(abc.ABC):
     emission_cosine: ClassVar[bool] = False
     cone_props: ClassVar[tuple[tuple[str, float, float], ...]] = ()
     range_prop: ClassVar[str | None] = None
+    #: the cone properties searched on a log scale (their bounds span decades)
+    cone_log: ClassVar[frozenset[str]] = frozenset()
+    #: the cone property that sets the cone's outer edge (past it the cone is 0)
+    cone_outer: ClassVar[str | None] = None
 
     @classmethod
     @abc.abstractmethod
@@ -93,14 +100,23 @@ class EngineWitness(abc.ABC):
 
     @classmethod
     def render(
-        cls, props: Props, d: np.ndarray, cos_s: np.ndarray, n_dot_l: np.ndarray, spot: bool
+        cls,
+        props: Props,
+        d: np.ndarray,
+        cos_s: np.ndarray,
+        n_dot_l: np.ndarray,
+        spot: bool,
+        precision: str = "float64",
     ) -> np.ndarray:
-        """E / I as the engine renders it (module docstring)."""
-        d = np.asarray(d, np.float64)
-        out = cls.distance(d, props) * cls.diffuse(np.asarray(n_dot_l, np.float64), d, props)
-        if spot:
-            out = out * cls.cone(np.asarray(cos_s, np.float64), props)
-        return out
+        """E / I as the engine renders it (module docstring), every operation rounded to
+        `precision` (the inputs first; float64 out)."""
+        dt = np.dtype(precision)
+        d = np.asarray(d, np.float64).astype(dt)
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            out = cls.distance(d, props) * cls.diffuse(np.asarray(n_dot_l).astype(dt), d, props)
+            if spot:
+                out = out * cls.cone(np.asarray(cos_s).astype(dt), props)
+        return np.asarray(out).astype(np.float64)
 
 
 def _window4(d, R):
@@ -127,6 +143,8 @@ class GodotWitness(EngineWitness):
         "receiver near the light"
     )
     cone_props = (("spot_angle", 0.1, 180.0), ("spot_angle_attenuation", 0.01, 50.0))
+    cone_log = frozenset({"spot_angle_attenuation"})
+    cone_outer = "spot_angle"
 
     @classmethod
     def _key(cls, props: Props) -> str:
@@ -169,6 +187,7 @@ class ThreeJSWitness(EngineWitness):
     )
     size_effect = "three.js point and spot lights have no size"
     cone_props = (("angle", 1e-3, 0.5 * math.pi), ("penumbra", 0.0, 1.0))
+    cone_outer = "angle"
     range_prop = "distance"
 
     @classmethod
@@ -184,7 +203,7 @@ class ThreeJSWitness(EngineWitness):
         angle, pen = float(props["angle"]), float(props.get("penumbra", 0.0))
         e0, e1 = _f32(math.cos(angle)), _f32(math.cos(angle * (1.0 - pen)))
         if e1 == e0:  # GLSL smoothstep with edge0 == edge1 is undefined: a step here
-            return (cos_s >= e0).astype(np.float64)
+            return (cos_s >= e0).astype(cos_s.dtype)
         t = _sat((cos_s - e0) / (e1 - e0))
         return t * t * (3.0 - 2.0 * t)
 
@@ -206,6 +225,7 @@ class UnrealWitness(EngineWitness):
         "sin^2 a = SourceRadius^2/d^2); SourceLength makes a capsule: attenfit hands out 0"
     )
     cone_props = (("InnerConeAngle", 0.0, 89.0), ("OuterConeAngle", 0.0, 90.0))
+    cone_outer = "OuterConeAngle"
     range_prop = "AttenuationRadius"
 
     @classmethod
@@ -245,20 +265,35 @@ class UnrealWitness(EngineWitness):
 
 
 class _ScaleOffsetCone(EngineWitness):
-    """The `saturate(c scale + offset)^2` cone shared by Filament, Bevy, Unity and glTF."""
+    """The `saturate(c scale + offset)^2` cone shared by Filament, Bevy, Unity and glTF.
+
+    Its properties are `cone_inner` and `cone_outer`: half-angles in radians within
+    [0, pi/2] (`cone_props` derived so) unless a subclass states its own `cone_props`;
+    their cosines are the float32 cosines the engine's CPU side computes (Bevy's light.rs,
+    glTF's reference) unless a subclass states its own `cone_cosines` (Filament's
+    fast::cos, Unity's full angles in degrees)."""
 
     cone_floor: ClassVar[float]
+    cone_inner: ClassVar[str]
     #: the floor of d^2 in the engine's 1/d^2 (a punctual light's centimetre, or HALF_MIN)
     d2_floor: ClassVar[float] = 1e-4
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "cone_props" not in cls.__dict__:
+            cls.cone_props = tuple(
+                (n, 0.0, 0.5 * math.pi) for n in (cls.cone_inner, cls.cone_outer)
+            )
 
     @classmethod
     def distance(cls, d, props):
         return _window4(d, float(props[cls.range_prop])) / np.maximum(d * d, cls.d2_floor)
 
     @classmethod
-    @abc.abstractmethod
     def cone_cosines(cls, props: Props) -> tuple[float, float]:
-        """(cos inner, cos outer) as the engine computes them."""
+        """(cos inner, cos outer) as the engine computes them (class docstring)."""
+        inner = float(props.get(cls.cone_inner, 0.0))
+        return _f32(math.cos(inner)), _f32(math.cos(float(props[str(cls.cone_outer)])))
 
     @classmethod
     def cone(cls, cos_s, props):
@@ -278,7 +313,7 @@ class FilamentWitness(_ScaleOffsetCone):
         "scale = 1/max(1/1024, cosInner - cosOuter))"
     )
     size_effect = "Filament punctual lights have no size"
-    cone_props = (("spot_inner", 0.0, 0.5 * math.pi), ("spot_outer", 0.0, 0.5 * math.pi))
+    cone_inner, cone_outer = "spot_inner", "spot_outer"
     cone_floor = 1.0 / 1024.0
     range_prop = "falloff"
 
@@ -300,15 +335,9 @@ class BevyWitness(_ScaleOffsetCone):
         "1e-4)); point_light's radius moves the specular representative point only"
     )
     size_effect = "radius shapes the specular term only (representative point); diffuse unchanged"
-    cone_props = (("inner_angle", 0.0, 0.5 * math.pi), ("outer_angle", 0.0, 0.5 * math.pi))
+    cone_inner, cone_outer = "inner_angle", "outer_angle"
     cone_floor = 1e-4
     range_prop = "range"
-
-    @classmethod
-    def cone_cosines(cls, props):
-        return _f32(math.cos(float(props.get("inner_angle", 0.0)))), _f32(
-            math.cos(float(props["outer_angle"]))
-        )
 
 
 @final
@@ -323,6 +352,7 @@ class UnityWitness(_ScaleOffsetCone):
     )
     size_effect = "URP punctual lights have no size in the diffuse term"
     cone_props = (("innerSpotAngle", 0.0, 179.0), ("spotAngle", 1.0, 179.0))
+    cone_inner, cone_outer = "innerSpotAngle", "spotAngle"
     cone_floor = 0.001
     range_prop = "range"
     d2_floor = 2.0**-14
@@ -344,10 +374,7 @@ class GltfWitness(_ScaleOffsetCone):
         "saturate(cd scale + offset)^2)"
     )
     size_effect = "glTF punctual lights have no size"
-    cone_props = (
-        ("innerConeAngle", 0.0, 0.5 * math.pi),
-        ("outerConeAngle", 0.0, 0.5 * math.pi),
-    )
+    cone_inner, cone_outer = "innerConeAngle", "outerConeAngle"
     cone_floor = 0.001
     range_prop = "range"
 
@@ -358,12 +385,6 @@ class GltfWitness(_ScaleOffsetCone):
         if R is None or not math.isfinite(float(R)) or float(R) <= 0:
             return f
         return np.maximum(np.minimum(1.0 - (d / float(R)) ** 4, 1.0), 0.0) * f
-
-    @classmethod
-    def cone_cosines(cls, props):
-        return _f32(math.cos(float(props.get("innerConeAngle", 0.0)))), _f32(
-            math.cos(float(props["outerConeAngle"]))
-        )
 
 
 WITNESSES: tuple[type[EngineWitness], ...] = (
@@ -396,10 +417,12 @@ def engine_receiver_errors(
     intensity: float,
     E_true: np.ndarray,
     denom: np.ndarray,
+    precision: str = "float64",
 ) -> np.ndarray:
     """|E_engine - E_true| / denom at a scene's receivers (the scene's judged error), with
-    `E_engine = intensity * witness.render(...)`; inf where it is not finite."""
-    E = intensity * witness.render(props, d, cos_s, n_dot_l, spot)
+    `E_engine = intensity * witness.render(..., precision)` (the scene's precision: what
+    the answer claims); inf where it is not finite."""
+    E = intensity * witness.render(props, d, cos_s, n_dot_l, spot, precision)
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         err = np.abs(E - E_true) / denom
     return np.where(np.isfinite(err), err, np.inf)

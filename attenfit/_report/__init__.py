@@ -20,4 +20,7 @@ from ._document import Report as Report
 from ._plots import plain_log_ticks as plain_log_ticks
 from ._published import PUBLISHED_RULES as PUBLISHED_RULES
 from ._published import published_params as published_params
+from ._witness import cached_witness as cached_witness
+from ._witness import store_witness as store_witness
+from ._witness import witness_key as witness_key
 from ._witness import witness_section as witness_section

@@ -21,17 +21,6 @@ from ._metrics import GAP_BAND_LABELS
 WINDOWED = ("smooth", "hard")
 
 
-def _save(fig, folder: Path, key: str, dpi: int, svg: bool, out: dict[str, Path]) -> None:
-    import matplotlib as mpl
-
-    png = folder / f"{key}.png"
-    with mpl.rc_context(plots.STYLE):
-        fig.savefig(png, dpi=dpi)
-        if svg:
-            fig.savefig(folder / f"{key}.svg")
-    out[key] = png
-
-
 def _split(report) -> tuple[list[str], list[str]]:
 
     plain, windowed = [], []
@@ -248,43 +237,165 @@ def _witness_z(report, cfg):
     return fig
 
 
+def _rows(report, cfgs, modes) -> list:
+    """What the figures of configurations `cfgs` in `modes` read of the results: each row's
+    status, window and sweep errors, and the stored values."""
+    out = []
+    for cfg in cfgs:
+        for fam in report.families:
+            for mode in modes:
+                row = report._get(fam, cfg.name, mode)
+                if row is not None:
+                    values = report._values.get((fam, cfg.name, mode))
+                    fields = (row["status"], row.get("window"), row.get("sweep"))
+                    out.append((fam, cfg.name, mode, fields, values))
+    return out
+
+
+def _inputs(report, cfg, key: str, modes: tuple[str, ...]) -> tuple:
+    """Everything figure `key` is drawn from (its cache key, with the code's version): the
+    families and how they are grouped, its configuration(s), their rows in `modes`, and for
+    the figures that show them, the decisions and the shader costs."""
+    plain, windowed = _split(report)
+    cfgs = [c for c in report.configs if c.sweep is not None] if cfg is None else [cfg]
+    extra: tuple = ()
+    if key.endswith("_side_by_side"):
+        extra = tuple(e for e in report.decisions() if e["config"] == cfg.name)
+    elif cfg is None:
+        costs = {k: v.get("shader_cost") for k, v in report.costs.items()}
+        extra = (costs, next(iter(report.costs.values()), {}).get("cost_label"))
+    # of a configuration, the part the figure shows: its sweep, its plane (and the emitter
+    # the decision's area models are evaluated on), or its witness's z-scores
+    part = ("plane", "emitter") if "_plane_" in key else ("witness_z",)
+    part = ("sweep",) if cfg is None or key.endswith(("_published", "_fitted")) else part
+    shown = [(c.name, c.kind, c.radius, c.source, *(getattr(c, a) for a in part)) for c in cfgs]
+    return (key, plain, windowed, shown, _rows(report, cfgs, modes), extra)
+
+
 def figure_jobs(report, *, published_only: bool = False):
-    """(configuration, key, make) for every figure, in report order; `make()` returns a figure
-    or None. With `published_only`, only those that need nothing beyond the published results
-    (what `prerender` can draw while the fits run)."""
+    """(configuration, key, make, inputs) for every figure, in report order; `make()` returns
+    a figure or None, `inputs()` what it is drawn from (`_inputs`). With `published_only`,
+    only those that need nothing beyond the published results (what `prerender` can draw
+    while the fits run)."""
     jobs = []
+    both = ("published", "fitted")
     for cfg in report.configs:
         if cfg.sweep is not None:
-            for mode in ("published",) if published_only else ("published", "fitted"):
+            for mode in ("published",) if published_only else both:
                 if not any(report._get(f, cfg.name, mode) for f in report.families):
                     continue
                 for kind, name in (("attenuation", "attenuation"), ("error", "error")):
+                    key = f"{cfg.name}_{name}_{mode}"
                     jobs.append(
                         (
                             cfg,
-                            f"{cfg.name}_{name}_{mode}",
+                            key,
                             lambda cfg=cfg, mode=mode, kind=kind: _two_panel(
                                 report, cfg, mode, kind
                             ),
+                            lambda cfg=cfg, key=key, mode=mode: _inputs(report, cfg, key, (mode,)),
                         )
                     )
         if getattr(cfg, "witness_z", None) is not None:
-            jobs.append((cfg, f"{cfg.name}_witness_z", lambda cfg=cfg: _witness_z(report, cfg)))
-        if cfg.plane is not None:
+            key = f"{cfg.name}_witness_z"
             jobs.append(
-                (cfg, f"{cfg.name}_plane_errors", lambda cfg=cfg: _plane_errors(report, cfg))
+                (
+                    cfg,
+                    key,
+                    lambda cfg=cfg: _witness_z(report, cfg),
+                    lambda cfg=cfg, key=key: _inputs(report, cfg, key, ()),
+                )
+            )
+        if cfg.plane is not None:
+            key = f"{cfg.name}_plane_errors"
+            jobs.append(
+                (
+                    cfg,
+                    key,
+                    lambda cfg=cfg: _plane_errors(report, cfg),
+                    lambda cfg=cfg, key=key: _inputs(report, cfg, key, ("published",)),
+                )
             )
             if not published_only:  # it shows the decision's models: after the fits
+                key = f"{cfg.name}_plane_side_by_side"
                 jobs.append(
                     (
                         cfg,
-                        f"{cfg.name}_plane_side_by_side",
+                        key,
                         lambda cfg=cfg: _side_by_side(report, cfg),
+                        lambda cfg=cfg, key=key: _inputs(report, cfg, key, both),
                     )
                 )
     if not published_only:
-        jobs.append((None, "cost_vs_error", lambda: _cost_vs_error(report)))
+        jobs.append(
+            (
+                None,
+                "cost_vs_error",
+                lambda: _cost_vs_error(report),
+                lambda: _inputs(report, None, "cost_vs_error", both),
+            )
+        )
     return jobs
+
+
+#: Figures drawn in this process (what the figure cache spares; its tests count them).
+DRAWN: list[str] = []
+
+
+def _render(job, dpi: int, svg: bool) -> tuple[bytes, bytes | None] | None:
+    """A figure's PNG (and SVG) bytes: from attenfit's cache when the same inputs, dpi and
+    code drew it before, else drawn now and cached. None: the figure has nothing to show."""
+    from .. import _cache
+
+    _cfg, key, make, inputs = job
+    try:
+        ident = _cache.fingerprint(inputs(), dpi, _matplotlib_version())
+    except Exception:  # a value the fingerprint cannot walk: draw it
+        ident = None
+    if ident is not None:
+        png = _cache.read("figure", ident + " png")
+        svg_bytes = _cache.read("figure", ident + " svg") if svg else None
+        if png is not None and png.startswith(_PNG) and (svg_bytes is not None or not svg):
+            return png, svg_bytes
+    fig = make()
+    if fig is None:
+        return None
+    DRAWN.append(key)
+    png, svg_bytes = _to_bytes(fig, dpi, svg)
+    if ident is not None:
+        _cache.write("figure", ident + " png", png)
+        if svg_bytes is not None:
+            _cache.write("figure", ident + " svg", svg_bytes)
+    return png, svg_bytes
+
+
+_PNG = b"\x89PNG\r\n\x1a\n"
+
+
+def _matplotlib_version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("matplotlib")
+    except metadata.PackageNotFoundError:
+        return "none"
+
+
+def _to_bytes(fig, dpi: int, svg: bool) -> tuple[bytes, bytes | None]:
+    """`fig` as PNG bytes at `dpi` (and SVG bytes when `svg`)."""
+    import io
+
+    import matplotlib as mpl
+
+    with mpl.rc_context(plots.STYLE):
+        png = io.BytesIO()
+        fig.savefig(png, dpi=dpi, format="png")
+        svg_bytes = None
+        if svg:
+            buf = io.BytesIO()
+            fig.savefig(buf, format="svg")
+            svg_bytes = buf.getvalue()
+    return png.getvalue(), svg_bytes
 
 
 def prerender(
@@ -294,25 +405,13 @@ def prerender(
 
     `build_report` runs this in a thread while the fits compile (XLA releases the GIL), so the
     two cores work at once; `draw_all` then writes these bytes instead of drawing again.
+    Figures drawn from the same inputs before come from the cache (`_render`).
     """
-    import io
-
-    import matplotlib as mpl
-
     out: dict[str, tuple[bytes, bytes | None]] = {}
-    for _cfg, key, make in figure_jobs(report, published_only=True):
-        fig = make()
-        if fig is None:
-            continue
-        with mpl.rc_context(plots.STYLE):
-            png = io.BytesIO()
-            fig.savefig(png, dpi=dpi, format="png")
-            svg_bytes = None
-            if svg:
-                buf = io.BytesIO()
-                fig.savefig(buf, format="svg")
-                svg_bytes = buf.getvalue()
-        out[key] = (png.getvalue(), svg_bytes)
+    for job in figure_jobs(report, published_only=True):
+        drawn = _render(job, dpi, svg)
+        if drawn is not None:
+            out[job[1]] = drawn
     return out
 
 
@@ -327,24 +426,26 @@ def draw_all(
 ) -> dict[str, Path]:
     """Draw every figure of `report` into `folder`; return figure key -> PNG path.
 
-    Figures in `prerendered` (from `prerender`, same dpi and formats) are written, not redrawn.
+    Figures in `prerendered` (from `prerender`, same dpi and formats) are written, not redrawn;
+    those drawn from the same inputs before come from the cache (`_render`).
     """
     out: dict[str, Path] = {}
     say = progress or (lambda s: None)
     prerendered = prerendered or {}
     current = None
-    for cfg, key, make in figure_jobs(report):
+    for job in figure_jobs(report):
+        cfg, key = job[0], job[1]
         if cfg is not None and cfg is not current:
             current = cfg
             say(f"figures: {cfg.name}")
         if key in prerendered and (prerendered[key][1] is not None or not svg):
-            png, svg_bytes = prerendered[key]
-            (folder / f"{key}.png").write_bytes(png)
-            if svg:
-                (folder / f"{key}.svg").write_bytes(svg_bytes)
-            out[key] = folder / f"{key}.png"
+            drawn = prerendered[key]
+        else:
+            drawn = _render(job, dpi, svg)
+        if drawn is None:
             continue
-        fig = make()
-        if fig is not None:
-            _save(fig, folder, key, dpi, svg, out)
+        (folder / f"{key}.png").write_bytes(drawn[0])
+        if svg:
+            (folder / f"{key}.svg").write_bytes(drawn[1])
+        out[key] = folder / f"{key}.png"
     return out

@@ -60,19 +60,35 @@ def _tick_text(v: float, _pos: Any = None) -> str:
 
 def plain_log_ticks(axis: Any) -> None:
     """Use `_tick_text` labels on a log or symlog `axis`: the decades, and the minor ticks
-    too where the view spans less than a decade (else a narrow axis has no label at all)."""
-    from matplotlib.ticker import FuncFormatter
+    too where the view spans less than a decade (else a narrow axis has no label at all).
 
-    def minor(v: float, pos: Any = None) -> str:
-        lo, hi = sorted(abs(x) for x in axis.get_view_interval())
-        span = hi / lo if lo > 0 else np.inf
-        if span >= 10 or v == 0:
-            return ""
-        mantissa = round(abs(v) / 10 ** np.floor(np.log10(abs(v))), 6)
-        return _tick_text(v) if span < 3 or mantissa in (2.0, 5.0) else ""
+    The minor labels are made a whole axis at a time (`Formatter.format_ticks`, the view's
+    span read once): a report's figure asks for them some 60 times per axis while it lays
+    out, each time for every minor tick."""
+    from matplotlib.ticker import Formatter, FuncFormatter
+
+    class _Minor(Formatter):
+        def __call__(self, v: float, pos: Any = None) -> str:
+            return self.format_ticks([v])[0]
+
+        def format_ticks(self, values) -> list[str]:
+            lo, hi = sorted(abs(x) for x in axis.get_view_interval())
+            span = hi / lo if lo > 0 else np.inf
+            if span >= 10:
+                return [""] * len(values)
+            return [_minor_text(v, span) for v in values]
 
     axis.set_major_formatter(FuncFormatter(_tick_text))
-    axis.set_minor_formatter(FuncFormatter(minor))
+    axis.set_minor_formatter(_Minor())
+
+
+def _minor_text(v: float, span: float) -> str:
+    """A minor tick's label on an axis spanning `span` (< 10): every one below a span of 3,
+    else those at 2 and 5 times a decade."""
+    if v == 0:
+        return ""
+    mantissa = round(abs(v) / 10 ** np.floor(np.log10(abs(v))), 6)
+    return _tick_text(v) if span < 3 or mantissa in (2.0, 5.0) else ""
 
 
 def curve_styles(labels: Sequence[str]) -> dict[str, dict[str, Any]]:

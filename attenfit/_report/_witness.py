@@ -13,8 +13,11 @@ N(0, 1): median |z| = 0.674 (the median of a half-normal, sqrt(2) erfinv(1/2)), 
 
 from __future__ import annotations
 
+import base64
 import dataclasses
+import hashlib
 import io
+import json
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -24,7 +27,15 @@ import numpy as np
 from .._errors import BadTypeError, BadValueError
 from .._truth import Dataset
 
-__all__ = ["HALF_NORMAL_MEDIAN", "WitnessSection", "witness_section", "witness_z"]
+__all__ = [
+    "HALF_NORMAL_MEDIAN",
+    "WitnessSection",
+    "cached_witness",
+    "store_witness",
+    "witness_key",
+    "witness_section",
+    "witness_z",
+]
 
 #: The median of |Z| for Z ~ N(0, 1): sqrt(2) erfinv(1/2).
 HALF_NORMAL_MEDIAN = 0.6744897501960817
@@ -180,3 +191,63 @@ def _histogram_png(zs: list[tuple[str, np.ndarray]], data: dict[str, Any], dpi: 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
+
+
+# ----------------------------------------------------------------------------- the cache
+#: The renderer's libraries: another version renders again.
+_RENDERER_LIBRARIES = ("mitsuba", "drjit")
+
+
+def witness_key(emitters: Any, renderer: str = "data_gen", **settings: Any) -> str | None:
+    """The cache key of the witness of `emitters` rendered by the package `renderer` with
+    `settings`: with the renderer's source files and its libraries' versions (attenfit's own
+    version keys the cache itself). None where the renderer cannot be found (nothing to
+    cache: it cannot render either)."""
+    import importlib.util
+    from importlib import metadata
+    from pathlib import Path
+
+    from .. import _cache
+
+    try:
+        spec = importlib.util.find_spec(renderer)
+    except (ImportError, ValueError):
+        return None
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    source = hashlib.sha256()
+    for folder in spec.submodule_search_locations:
+        for path in sorted(Path(folder).rglob("*.py")):
+            source.update(str(path.relative_to(folder)).encode() + path.read_bytes())
+    versions = {}
+    for name in _RENDERER_LIBRARIES:
+        try:
+            versions[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            versions[name] = None
+    return _cache.fingerprint(emitters, renderer, source.hexdigest(), versions, settings)
+
+
+def cached_witness(key: str | None) -> WitnessSection | None:
+    """The witness section cached under `key` (`witness_key`), or None."""
+    from .. import _cache
+
+    payload = None if key is None else _cache.read("witness", key)
+    if payload is None:
+        return None
+    entry = json.loads(payload)
+    png = base64.b64decode(entry["png"])
+    if not png.startswith(b"\x89PNG\r\n\x1a\n"):
+        _cache.notice("ignoring a cache entry that holds no witness figure; it will be rebuilt")
+        return None
+    return WitnessSection(entry["data"], png)
+
+
+def store_witness(key: str | None, section: WitnessSection) -> None:
+    """Cache `section` under `key` (`witness_key`), so that a later report with the same
+    lights and renderer renders nothing."""
+    from .. import _cache
+
+    if key is not None:
+        png = base64.b64encode(section.png).decode("ascii")
+        _cache.write("witness", key, json.dumps({"data": section.data, "png": png}).encode())

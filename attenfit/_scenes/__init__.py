@@ -12,6 +12,7 @@ from ._advice import Recommendation as Recommendation
 from ._advice import plot_scene_errors as plot_scene_errors
 from ._answer import FileAnswer as FileAnswer
 from ._answer import answer_file as answer_file
+from ._answer import answer_scene as answer_scene
 from ._choices import LightChoice as LightChoice
 from ._engine import ENGINES as ENGINES
 from ._engine import get_engine as get_engine

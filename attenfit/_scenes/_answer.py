@@ -129,18 +129,22 @@ def answer_file(path: str | os.PathLike, *, measure: bool = False, **options: An
 
 
 @in_float64
-def answer_scene(scene, engine: str, *, threshold: float | None = None) -> FileAnswer:
+def answer_scene(
+    scene, engine: str, *, threshold: float | None = None, measure: bool = False
+) -> FileAnswer:
     """A TOML `Scene` answered per light for `engine` as a file is (`answer_file`): each
-    light's family, range and engine properties, judged through the engine's own shading."""
+    light's family, range and engine properties, judged through the engine's own shading
+    (`attenfit scene FILE.toml --engine E`)."""
     from ._engine import get_engine
     from ._files import engine_scene
 
     eng = get_engine(engine)
     scene = engine_scene(scene, eng)
     truths = scene.ground_truth()
-    rec = recommend(scene, truths=truths)
+    rec = recommend(scene, measure=measure, truths=truths)
     datas = [light_data(scene, t) for t in truths]
     n = len(scene.lights)
+    source = Path(scene.source) if scene.source else None
     imported = ImportedScene(
         scene=scene,
         path=Path(scene.source or scene.name or "scene.toml"),
@@ -154,5 +158,6 @@ def answer_scene(scene, engine: str, *, threshold: float | None = None) -> FileA
         threshold=threshold,
         engine=eng,
         notices=(),
+        inputs=(str(source.resolve()),) if source is not None and source.exists() else (),
     )
     return FileAnswer(imported, rec, light_choices(imported, rec, datas))

@@ -366,7 +366,7 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
         props = engine.properties(pick.family, params, light, spot)
         verdict = engine_verdict(
             engine.witness, light, props, sub, scene.tolerance,
-            engine.size_prop, engine.size_unit * light.radius,
+            engine.size_prop, engine.size_unit * light.radius, scene.precision,
         )  # fmt: skip
         props, status = dict(verdict.properties), verdict.status
     return LightChoice(
@@ -454,7 +454,8 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         lines += [
             f"Judged through {eng.name}'s own shading (the engine witness: "
             f"{eng.witness.source}): the engine-rendered error is the largest error of what "
-            f"{eng.name} draws with these properties at the light's receivers.",
+            f"{eng.name} draws with these properties at the light's receivers, every "
+            f"operation rounded to {imported.scene.precision} (the scene's precision).",
             "",
         ]
         for c in choices:
@@ -484,8 +485,9 @@ def _text(text: str) -> str:
 
 
 def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
-    """Each light's checked error against distance (its final curve at its receivers), the
-    tolerance dashed and each chosen range dotted; `(fig, ax)`, never shown."""
+    """Each light's checked error against distance (its final curve at its receivers; with
+    an engine, what the engine renders), the tolerance dashed and each chosen range dotted;
+    `(fig, ax)`, never shown."""
     import matplotlib
     import matplotlib.pyplot as plt
 
@@ -500,7 +502,7 @@ def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
             o = np.argsort(d)
             line = ax.plot(
                 d[o], np.maximum(e[o], floor), "os^vDP"[k % 6], ms=2.5, alpha=0.6,
-                label=_text(f"{c.name}: {c.family} (max {pct(c.checked_error)})"),
+                label=_text(f"{c.name}: {c.family} (max {pct(c.claimed_error)})"),
             )[0]  # fmt: skip
             R = c.range.get("range") if c.range else None
             if R:
@@ -508,9 +510,10 @@ def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
         ax.axhline(tol, color="k", ls="--", lw=1, label=f"tolerance {pct(tol)}")
         ax.set_yscale("log")
         ax.set_xlabel("distance from the light's centre (m); dotted: the chosen range")
-        ax.set_ylabel(f"checked error (< {floor:.0e} drawn at it)")
-        eng = f" for {imported.engine.name}" if imported.engine else ""
-        ax.set_title(_text(f"{imported.path.name}{eng}: each light's final curve at its receivers"))
+        what = "engine-rendered" if imported.engine else "checked"
+        ax.set_ylabel(f"{what} error (< {floor:.0e} drawn at it)")
+        eng = f" as {imported.engine.name} renders it" if imported.engine else ""
+        ax.set_title(_text(f"{imported.path.name}: each light's final curve{eng} at its receivers"))
         ax.legend(fontsize=7, loc="best")
         fig.tight_layout()
     return fig, ax

@@ -3,10 +3,12 @@ and the best settings the engine allows when its first mapping is not within tol
 
 `engine_verdict(engine, light, props, x, tolerance)`: the light properties attenfit hands
 out (`Engine.properties`) rendered by the engine's witness at the light's judged receivers
-`x`, with the scene's judged error. The worst case over the scene's receivers (a finite set)
+`x`, with the scene's judged error, at the scene's precision (the precision the answer
+claims: in float32 or float16 every operation of the engine's shading is rounded to it, as
+attenfit's own curve is). The worst case over the scene's receivers (a finite set)
 is their largest error. When that is over the tolerance, the spot cone's properties that
-the engine exposes (`EngineWitness.cone_props`) are moved within their bounds (Nelder-Mead on the largest
-error, from the mapping and from a few starts across the bounds), and a light size the
+the engine exposes (`EngineWitness.cone_props`) are moved within their bounds (a grid
+over the cone's edge and, at each edge, the best cone shape: `_cone_search`), and a light size the
 engine feeds into its diffuse term (Godot's `light_size`, Unreal's `SourceRadius`) is tried
 at 0 and at the light's radius: the settings kept are the ones the engine renders closest,
 never worse than the mapping. A light no settings bring within tolerance is "fail" with
@@ -28,8 +30,13 @@ from ._types import SceneLight
 
 __all__ = ["EngineVerdict", "engine_verdict", "renders_as_spot"]
 
-#: Nelder-Mead evaluations per start, and starts across the bounds besides the mapping.
-_EVALS, _STARTS = 240, 4
+#: The cone search (`_cone_search`): grid points per property, edge values refined, and
+#: golden-section steps per refinement.
+_GRID, _KEEP, _REFINE = 24, 3, 24
+#: The cone's edge is kept at least this fraction of its property's span past the outermost
+#: lit receiver: 1.6e-6 rad for an angle in radians, which moves the cosine 30 degrees off
+#: the axis by 7.9e-7, 13 float32 steps there (float32 rounds a cosine by 6e-8).
+_MARGIN = 1e-6
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,50 +72,137 @@ def _geometry(light: SceneLight, x: LightData) -> tuple[np.ndarray, np.ndarray]:
     return -(l @ axis), np.sum(n * l, axis=1)
 
 
-def _errors(w: type[EngineWitness], props, light, x, geo) -> np.ndarray:
-    cos_s, n_dot_l = geo
-    return engine_receiver_errors(
-        w, props, d=x.d, cos_s=cos_s, n_dot_l=n_dot_l, spot=renders_as_spot(light),
-        intensity=light.intensity, E_true=x.E_true, denom=x.denom,
-    )  # fmt: skip
+@dataclasses.dataclass(frozen=True)
+class _Case:
+    """A light's receivers as the engine sees them: witness `w`, the light, its judged
+    receivers `x`, their cosine from the spot's axis and n.l, the scene's precision."""
 
+    w: type[EngineWitness]
+    light: SceneLight
+    x: LightData
+    cos_s: np.ndarray
+    n_dot_l: np.ndarray
+    precision: str
 
-def _worst(w, props, light, x, geo) -> float:
-    e = _errors(w, props, light, x, geo)
-    return float(e.max()) if e.size else 0.0
-
-
-def _cone_search(w: type[EngineWitness], props: dict[str, Any], light, x, geo):
-    """The cone properties moved to the engine's closest rendering: (props, error)."""
-    from scipy.optimize import minimize
-
-    names = [p[0] for p in w.cone_props]
-    lo = np.array([p[1] for p in w.cone_props])
-    hi = np.array([p[2] for p in w.cone_props])
-
-    def with_(u):
-        v = lo + (hi - lo) * np.clip(u, 0.0, 1.0)
-        return {**props, **dict(zip(names, (float(a) for a in v), strict=True))}
-
-    def objective(u):
-        return _worst(w, with_(u), light, x, geo)
-
-    u0 = np.array(
-        [(float(props.get(n, lo[k])) - lo[k]) / (hi[k] - lo[k]) for k, n in enumerate(names)]
-    )
-    starts = [np.clip(u0, 0.0, 1.0)]
-    rng = np.random.default_rng(0)
-    starts += [rng.uniform(0.05, 0.95, len(names)) for _ in range(_STARTS)]
-    best_u, best_e = starts[0], objective(starts[0])
-    for s in starts:
-        res = minimize(
-            objective, s, method="Nelder-Mead",
-            options={"maxfev": _EVALS, "xatol": 1e-6, "fatol": 1e-9, "initial_simplex": None},
+    def errors(self, props: Mapping[str, Any]) -> np.ndarray:
+        x = self.x
+        return engine_receiver_errors(
+            self.w, props, d=x.d, cos_s=self.cos_s, n_dot_l=self.n_dot_l,
+            spot=renders_as_spot(self.light), intensity=self.light.intensity,
+            E_true=x.E_true, denom=x.denom, precision=self.precision,
         )  # fmt: skip
-        e = objective(res.x)
-        if e < best_e:
-            best_u, best_e = res.x, e
-    return with_(best_u), best_e
+
+    def worst(self, props: Mapping[str, Any]) -> float:
+        e = self.errors(props)
+        return float(e.max()) if e.size else 0.0
+
+
+def _cone_search(case: _Case, props: dict[str, Any]):
+    """The cone properties moved to the engine's closest rendering: (props, error).
+
+    The largest error over the receivers is flat where the cone leaves a lit receiver dark
+    and has narrow valleys where the cone's edge sits just past the outermost lit receiver,
+    so a local search from a few starts misses them. Every engine's cone has one property
+    for its outer edge (`EngineWitness.cone_outer`) and one for its shape, and at a fixed
+    edge the cone at each receiver is monotone in the shape property: each receiver's error
+    is then quasi-convex in it, and so is their largest. So: for each edge value, the best
+    shape by a `_GRID`-point scan (log-spaced for `cone_log`) refined by golden section
+    between the best point's neighbours; edge values on a grid across the bounds and at
+    offsets past the outermost lit receiver's edge (`_edge`; log-spaced from `_MARGIN` of
+    the span, never closer), and the best `_KEEP` refined by golden section between their
+    neighbours.
+    tests/test_engine_search.py checks it against a brute-force grid."""
+    (oname, olo, ohi), (sname, slo, shi) = _cone_axes(case.w)
+    log = sname in case.w.cone_log
+    seen: dict[tuple[float, float], float] = {}
+
+    edge = _edge(case, props, oname, sname, olo, ohi, slo)
+    margin = _MARGIN * (ohi - olo)
+
+    def err(vo: float, vs: float) -> float:
+        if edge is not None and edge < vo < edge + margin:
+            vo = edge + margin  # float32 rounding of a receiver's cosine cannot cross it
+        key = (float(vo), float(vs))
+        if key not in seen:
+            seen[key] = case.worst({**props, oname: key[0], sname: key[1]})
+        return seen[key]
+
+    def shape_of(u: float) -> float:
+        return float(
+            np.exp(np.log(slo) + (np.log(shi) - np.log(slo)) * u) if log else slo + (shi - slo) * u
+        )
+
+    def profile(vo: float) -> float:  # the best error at edge value vo, over the shape
+        us = np.linspace(0.0, 1.0, _GRID)
+        es = [err(vo, shape_of(u)) for u in us]
+        i = int(np.argmin(es))
+        lo_u, hi_u = us[max(i - 1, 0)], us[min(i + 1, _GRID - 1)]
+        return min(es[i], _golden(lambda u: err(vo, shape_of(u)), lo_u, hi_u))
+
+    edges = list(np.linspace(olo, ohi, _GRID))
+    given = float(props.get(oname, olo))
+    edges.append(min(max(given, olo), ohi))
+    err(edges[-1], float(props.get(sname, slo)))
+    if edge is not None and edge + margin < ohi:
+        steps = np.geomspace(_MARGIN * (ohi - olo) / (ohi - edge), 1.0, _GRID)
+        edges += list(np.minimum(edge + (ohi - edge) * steps, ohi))
+    edges = sorted(set(edges))
+    prof = {vo: profile(vo) for vo in edges}
+    for vo in sorted(prof, key=prof.__getitem__)[:_KEEP]:
+        i = edges.index(vo)
+        _golden(profile, edges[max(i - 1, 0)], edges[min(i + 1, len(edges) - 1)])
+    (vo, vs), e = min(seen.items(), key=lambda kv: kv[1])
+    return {**props, oname: vo, sname: vs}, e
+
+
+def _cone_axes(w: type[EngineWitness]):
+    """((name, low, high) of the outer-edge property, the same of the shape one)."""
+    outer = [p for p in w.cone_props if p[0] == w.cone_outer]
+    shape = [p for p in w.cone_props if p[0] != w.cone_outer]
+    if len(outer) != 1 or len(shape) != 1:
+        raise ValueError(f"{w.name}: the cone search takes one outer-edge and one shape property")
+    return outer[0], shape[0]
+
+
+def _golden(f, a: float, b: float, n: int = _REFINE) -> float:
+    """Golden-section search of `f` on [a, b] (`n` steps): the smallest value seen."""
+    r = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - r * (b - a), a + r * (b - a)
+    fc, fd = f(c), f(d)
+    best = min(fc, fd)
+    for _ in range(n):
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - r * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + r * (b - a)
+            fd = f(d)
+        best = min(best, fc, fd)
+    return best
+
+
+def _edge(case: _Case, props, oname, sname, olo, ohi, slo) -> float | None:
+    """The smallest value of the cone's outer-edge property at which the engine's cone
+    lights the outermost lit receiver (the shape property at its lower bound), by
+    bisection; None when no value lights it."""
+    lit = case.x.E_true > 0
+    if not lit.any():
+        return None
+    c = np.array([float(case.cos_s[lit].min())])
+    base = {**props, sname: slo}
+
+    def lights(v: float) -> bool:
+        return bool(case.w.cone(c, {**base, oname: v})[0] > 0)
+
+    a, b = float(olo), float(ohi)
+    if not lights(b):
+        return None
+    for _ in range(60):
+        m = 0.5 * (a + b)
+        a, b = (a, m) if lights(m) else (m, b)
+    return b
 
 
 def engine_verdict(
@@ -119,22 +213,24 @@ def engine_verdict(
     tolerance: float,
     size_prop: str | None = None,
     size_value: float = 0.0,
+    precision: str = "float64",
 ) -> EngineVerdict:
     """The engine's rendering of `props` judged at `x`, and its closest settings (module
     docstring). `size_prop`: the property through which a light's size reaches the diffuse
-    term, tried at 0 and at `size_value`."""
-    geo = _geometry(light, x)
+    term, tried at 0 and at `size_value`. `precision`: the scene's, every operation of
+    the engine's shading rounded to it (`EngineWitness.render`)."""
+    case = _Case(w, light, x, *_geometry(light, x), precision)
     props = dict(props)
-    mapped = _worst(w, props, light, x, geo)
+    mapped = case.worst(props)
     notes: list[str] = []
     tries = [props]
     if size_prop is not None:
         tries = [{**props, size_prop: 0.0}, {**props, size_prop: size_value}]
     best, best_e = props, mapped
     for p in tries:
-        e = _worst(w, p, light, x, geo)
+        e = case.worst(p)
         if renders_as_spot(light) and w.cone_props and e > tolerance:
-            p, e = _cone_search(w, p, light, x, geo)
+            p, e = _cone_search(case, p)
         if e < best_e or (e == best_e and p is tries[0]):
             best, best_e = p, e
     if size_prop is not None:
@@ -153,7 +249,7 @@ def engine_verdict(
             f"a {light.kind}: no {w.name} punctual light has an emission cosine; answered as a "
             f"spot whose cone is fitted to the {light.kind}'s cosine through the engine's own cone"
         )
-    errs = _errors(w, best, light, x, geo)
+    errs = case.errors(best)
     if not math.isfinite(best_e):
         best_e = math.inf
     status = "pass" if best_e <= tolerance else "fail"

@@ -60,7 +60,7 @@ SIDE_KEYS = {
     "samples": "receivers sampled per light, 16..65536; default 4096",
     "radius": "radius (m) of every light the file gives none (glTF lights, USD treatAsPoint)",
     "engine": f"one of {', '.join(ENGINES)}: only what that engine can express",
-    "strict": "refuse unsupported lights (rect, dome, cylinder, directional) instead of skipping them",
+    "strict": "refuse unsupported lights (dome, directional, shaped rect, elliptic cylinder) instead of skipping them",
     "time": "USD time code to read the scene at; default: each value's default, or the stage's start time code for a value authored only as time samples",
     "seed": "seed of the receiver sampling; default 0",
     "error_floor": "as in a TOML scene; default 0",

@@ -8,9 +8,11 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _cache
 from .._curves import (
     SPOT_FALLOFFS,
     Family,
@@ -22,7 +24,7 @@ from .._curves import (
     spot_threejs,
 )
 from .._errors import AttenfitError
-from .._fit import fit, fit_many
+from .._fit import fit, fit_many, reuse_results
 from .._shaders import compiled_cost, measure_throughput, shade_in
 from ._scene import Scene
 from ._types import LightTruth
@@ -177,9 +179,10 @@ def fit_group(
     if cls.range_tie is not None:
         fn = _TIED_FNS.setdefault(cls.name, _Tied(cls))
         params = {"r": np.array([s["r"] for s in starts]), "R": np.array([s["R"] for s in starts])}
-        res = fit_many(
-            (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)
-        )
+        with reuse_results():  # an unchanged scene asked again: no solve
+            res = fit_many(
+                (fn, params, {"r": "positive", "R": "positive"}), D, T, weights=W, free=("r",)
+            )
         out = []
         for k in range(len(datas)):
             r, R = float(res[k].params["r"]), float(starts[k]["R"])
@@ -188,7 +191,8 @@ def fit_group(
         return out
     batched = {p: np.array([s[p] for s in starts]) for p in cls.param_names()}
     model = cls(**batched, **knots_kw)
-    res = fit_many(model, D, T, weights=W, free=free)
+    with reuse_results():
+        res = fit_many(model, D, T, weights=W, free=free)
     return [(res[k].model, res[k].converged, res[k].message) for k in range(len(datas))]
 
 
@@ -198,13 +202,28 @@ def shade(model: Family, x: np.ndarray, precision: str) -> np.ndarray:
     that precision. A family without a shader form ships its stable form: float32 evaluates
     that; in float16 it cannot be judged (an `AttenfitError`)."""
     if precision == "float64":
-        return np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+        return _reference(model, x)
     values = shade_in(model, np.asarray(x, np.float64), precision)
     if values is not None:
         return values.astype(np.float64)
     if precision == "float32":
         return np.asarray(float32_family(model)(jnp.asarray(x, jnp.float32)), dtype=np.float64)
     raise AttenfitError(f"{model.name} has no shader form to evaluate in {precision}")
+
+
+def _reference(model: Family, x: np.ndarray) -> np.ndarray:
+    """`model` at `x` in float64, its JAX form; for attenfit's own families, from attenfit's
+    cache when this code evaluated the same model at the same points before (an unchanged
+    scene asked again compiles and runs no program for it)."""
+    x = np.asarray(x, np.float64)
+    own = type(model).__module__.startswith("attenfit.")
+    key = _cache.fingerprint(model, x, jax.config.jax_enable_x64) if own else None
+    values = None if key is None else _cache.read_array("values", key)
+    if values is None or values.shape != x.shape:
+        values = np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+        if key is not None:
+            _cache.write_array("values", key, values)
+    return values
 
 
 def judged_errors(data: LightData, f: np.ndarray, g: np.ndarray) -> np.ndarray:

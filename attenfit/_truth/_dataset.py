@@ -544,12 +544,20 @@ def random_receivers(
     dt = _dtype(dtype)
     _check_reach(d_max + 2 * _solid_radius(emitter) + float(getattr(emitter, "length", 0.0)), dt)
     rng = np.random.default_rng(int(seed))
-    r = float(emitter.radius)
+    pts = _random_points(emitter, n, d_min, d_max, rng)
+    normals = _random_normals(emitter, pts, rng)
+    prov = dict(builder="random_receivers", n=n, d_min=d_min, d_max=d_max, seed=int(seed))
+    return _exact(emitter, pts, normals, prov, dt)
 
-    def unit(k):
-        v = rng.normal(size=(k, 3))
-        return v / np.linalg.norm(v, axis=1, keepdims=True)
 
+def _unit_vectors(rng: np.random.Generator, k: int) -> np.ndarray:
+    v = rng.normal(size=(k, 3))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _random_points(emitter, n: int, d_min: float, d_max: float, rng) -> np.ndarray:
+    """`n` points at log-uniform distances from the light's centre (or a uniform point of its
+    segment), none inside it or nearer its surface than the clearance."""
     pts_list: list[np.ndarray] = []
     have = 0
     while have < n:
@@ -561,35 +569,28 @@ def random_receivers(
             base = a + rng.uniform(0, 1, size=(k, 1)) * (b - a)
         else:
             base = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), (k, 3))
-        p = base + d[:, None] * unit(k)
+        p = base + d[:, None] * _unit_vectors(rng, k)
         ok = ~_inside(emitter, p, margin=1e-6) & ~too_close(emitter, p)
         if isinstance(emitter, SEGMENT):
             ok &= _segment_distance(emitter, p) >= d_min
         pts_list.append(p[ok])
         have += int(ok.sum())
-    pts = np.concatenate(pts_list)[:n]
-    # normals
+    return np.concatenate(pts_list)[:n]
+
+
+def _random_normals(emitter, pts: np.ndarray, rng) -> np.ndarray:
+    """Half uniform on the sphere, half with `n.l` uniform in the horizon-straddling band."""
+    n, r = len(pts), float(emitter.radius)
     if isinstance(emitter, SEGMENT):
         target = np.asarray(emitter.closest_point(pts), dtype=np.float64)
     else:
         target = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), pts.shape)
     dp = np.linalg.norm(target - pts, axis=1)
     l = (target - pts) / dp[:, None]
-    if isinstance(emitter, FLAT):
-        sin_a = np.sin(np.arctan(r / dp))
-    else:
-        sin_a = np.clip(r / dp, 0, 1)
+    sin_a = np.sin(np.arctan(r / dp)) if isinstance(emitter, FLAT) else np.clip(r / dp, 0, 1)
     uniform = rng.uniform(size=n) < 0.5
     cos_t = np.where(uniform, rng.uniform(-1, 1, size=n), rng.uniform(-1, 1, size=n) * sin_a)
-    t1 = np.cross(l, unit(n))
+    t1 = np.cross(l, _unit_vectors(rng, n))
     t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
     sin_t = np.sqrt(np.clip(1 - cos_t**2, 0, 1))
-    normals = cos_t[:, None] * l + sin_t[:, None] * t1
-    prov = {
-        "builder": "random_receivers",
-        "n": n,
-        "d_min": d_min,
-        "d_max": d_max,
-        "seed": int(seed),
-    }
-    return _exact(emitter, pts, normals, prov, dt)
+    return cos_t[:, None] * l + sin_t[:, None] * t1

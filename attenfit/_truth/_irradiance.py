@@ -173,7 +173,8 @@ def _disk_setup(c: Array, m: Array, r: Array, p: Array, n: Array) -> dict[str, A
     nd = _dot(n, dv)
     dperp = dv + z * m  # in-plane vector from the receiver's foot to the centre
     s2 = _dot(dperp, dperp)
-    w2 = jnp.maximum(1 - nm * nm, 0.0)
+    nxm = jnp.cross(n, m)
+    w2 = _dot(nxm, nxm)  # sin^2 of the tilt: 1 - nm^2 loses tilts below 1e-8 rad
     w = _safe_sqrt(w2)
     behind = z <= 0
     below = nd <= -r * w

@@ -1,0 +1,258 @@
+"""The caches that make a warm call cheap (issue 30): `attenfit export`'s text, and the
+report's figures and Mitsuba witness. A cached answer must equal the computed one byte for
+byte, a corrupted entry must be ignored (recomputed, never trusted), and a changed input
+must recompute."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from attenfit import _cache
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch):
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("ATTENFIT_CACHE_DIR", str(folder))
+    return folder
+
+
+# ----------------------------------------------------------------------------- export
+_EXPORT = r"""
+import contextlib, io, json, sys
+from attenfit.cli import main
+
+out = io.StringIO()
+with contextlib.redirect_stdout(out):
+    code = main(sys.argv[1:])
+print(json.dumps([code, out.getvalue(), "jax" in sys.modules]))
+"""
+
+
+def _export(cache_dir: Path, *argv: str, cwd: Path | None = None) -> tuple[int, str, bool, str]:
+    """(exit code, stdout, whether JAX was imported, stderr) of `attenfit export ARGV` in a
+    fresh process."""
+    env = {**os.environ, "PYTHONPATH": str(REPO), "ATTENFIT_CACHE_DIR": str(cache_dir)}
+    proc = subprocess.run(
+        [sys.executable, "-c", _EXPORT, "export", *argv],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+        cwd=cwd,
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    code, text, jax = json.loads(proc.stdout.strip().splitlines()[-1])
+    return code, text, jax, proc.stderr
+
+
+def _entries(cache_dir: Path, kind: str) -> list[Path]:
+    return sorted((cache_dir / "entries").rglob(f"{kind}/*.bin"))
+
+
+def test_a_warm_export_prints_the_same_bytes_without_jax_and_ignores_a_corrupt_entry(cache_dir):
+    argv = ("yuksel", "--lang", "hlsl", "--param", "r=0.25", "--uniforms")
+    code, cold, cold_jax, _ = _export(cache_dir, *argv)
+    assert code == 0 and cold_jax and "attenfit_yuksel" in cold
+    (entry,) = _entries(cache_dir, "export")
+    code, warm, warm_jax, _ = _export(cache_dir, *argv)
+    assert (code, warm, warm_jax) == (0, cold, False)
+    # another argument is another entry, computed
+    code, glsl, jax, _ = _export(cache_dir, "yuksel", "--lang", "glsl", "--param", "r=0.25")
+    assert code == 0 and jax and glsl != cold and len(_entries(cache_dir, "export")) == 2
+    # a corrupted entry is ignored with a notice and recomputed, never printed
+    data = entry.read_bytes()
+    entry.write_bytes(data.replace(b"attenfit_yuksel", b"attenfit_bogus_"))
+    code, again, jax, err = _export(cache_dir, *argv)
+    assert (code, again, jax) == (0, cold, True) and "ignoring a corrupt cache entry" in err
+
+
+def test_an_export_entry_of_the_wrong_shape_is_ignored(cache_dir, capsys):
+    key = json.dumps(["x"])
+    assert _cache.write("export", key, json.dumps({"text": 3}).encode())
+    assert _cache.read("export", key) is None
+    assert "no exported text" in capsys.readouterr().err
+    assert _cache.write("export", key, json.dumps({"text": "f"}).encode())
+    assert _cache.read("export", key) == b'{"text": "f"}'
+
+
+def test_a_fit_file_export_is_keyed_by_the_file_bytes(cache_dir, tmp_path):
+    fit = tmp_path / "fit.json"
+    fit.write_text(json.dumps({"family": "yuksel", "params": {"r": 0.5}}))
+    _, first, _, _ = _export(cache_dir, str(fit), "--lang", "c")
+    _, warm, jax, _ = _export(cache_dir, str(fit), "--lang", "c")
+    assert warm == first and not jax
+    fit.write_text(json.dumps({"family": "yuksel", "params": {"r": 0.75}}))
+    _, changed, jax, _ = _export(cache_dir, str(fit), "--lang", "c")
+    assert jax and changed != first and "0.75" in changed
+
+
+# ----------------------------------------------------------------------------- report figures
+def _small_report(**kw):
+    from attenfit import build_report
+
+    args = dict(families=["inverse_square", "yuksel"], sweep_n=16, plane_px=8, cost=False)
+    return build_report(**{**args, **kw})
+
+
+def test_a_second_report_draws_no_figure_and_a_changed_input_redraws(
+    cache_dir, tmp_path, monkeypatch
+):
+    from attenfit._report import _figures
+
+    drawn = []
+    to_bytes = _figures._to_bytes
+
+    def counted(fig, *args):
+        drawn.append(fig)
+        return to_bytes(fig, *args)
+
+    monkeypatch.setattr(_figures, "_to_bytes", counted)
+    report = _small_report()
+    first = report.write(tmp_path / "one")
+    pngs = sorted((first / "figures").glob("*.png"))
+    assert len(pngs) >= 8 and len(drawn) == len(pngs)
+    drawn.clear()
+    again = _small_report(figures_early=True)  # built again; the thread's path too
+    second = again.write(tmp_path / "two")
+    assert drawn == []
+    for png in pngs:
+        assert (second / "figures" / png.name).read_bytes() == png.read_bytes()
+    # corrupted figure entries are redrawn, never written
+    drawn.clear()
+    for entry in _entries(cache_dir, "figure"):
+        entry.write_bytes(entry.read_bytes()[:-10])
+    third = report.write(tmp_path / "three")
+    assert len(drawn) == len(pngs)
+    for png in pngs:
+        assert (third / "figures" / png.name).read_bytes() == png.read_bytes()
+    # one pixel of one light's truth changed: that light's plane figures only are redrawn
+    sphere = next(c for c in report.configs if c.name == "sphere")
+    truth = sphere.plane.E.copy()
+    truth[0, 0] *= 1.5
+    object.__setattr__(sphere, "plane", dataclasses.replace(sphere.plane, E=truth))
+    keys = []
+    monkeypatch.setattr(_figures, "DRAWN", keys)  # the keys of the figures drawn
+    report.write(tmp_path / "four")
+    assert sorted(keys) == ["sphere_plane_errors", "sphere_plane_side_by_side"]
+
+
+# ----------------------------------------------------------------------------- the witness
+def test_the_witness_is_rendered_once_for_the_same_lights(cache_dir, monkeypatch):
+    pytest.importorskip("data_gen.witness")
+    import data_gen.variants
+    import data_gen.witness
+    from attenfit._cli import _cmd_report
+    from attenfit._report import resolve_emitters
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    from test_witness import _pair
+
+    renders = []
+
+    def render(emitters, **kw):
+        renders.append(sorted(emitters))
+        return [("sphere floor", *_pair(np.linspace(-1.0, 1.0, 50)))]
+
+    monkeypatch.setattr(data_gen.variants, "require_mitsuba", lambda: None)
+    monkeypatch.setattr(data_gen.witness, "render_witness", render)
+    emitters = resolve_emitters(None)
+    first = _cmd_report._Witness(emitters).result()
+    again = _cmd_report._Witness(emitters).result()
+    assert renders == [sorted(emitters)]
+    assert again.data == first.data and again.png == first.png
+    other = _cmd_report._Witness(resolve_emitters(["sphere"])).result()
+    assert len(renders) == 2 and other.data["n"] == first.data["n"]
+    # a corrupted entry is rendered again
+    for entry in _entries(cache_dir, "witness"):
+        entry.write_bytes(entry.read_bytes().replace(b'"spp": 64', b'"spp": 65'))
+    _cmd_report._Witness(emitters).result()
+    assert len(renders) == 3
+
+
+def test_a_witness_entry_of_the_wrong_shape_is_ignored(cache_dir, capsys):
+    from attenfit._report import cached_witness
+
+    key = "k"
+    assert _cache.write("witness", key, json.dumps({"data": {"n": 3}, "png": "AA=="}).encode())
+    assert cached_witness(key) is None
+    assert "no witness numbers" in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- solve outputs
+def test_reused_solve_outputs_equal_a_solve_and_a_changed_input_solves(cache_dir, monkeypatch):
+    import attenfit as af
+    from attenfit._fit import _compiled, reuse_results
+
+    solves = []
+    solve = _compiled._OnHost._solve
+    monkeypatch.setattr(
+        _compiled._OnHost, "_solve", lambda self, *a: solves.append(1) or solve(self, *a)
+    )
+    d = np.geomspace(0.05, 10.0, 32)[None].repeat(3, 0)
+    t = 1 / (d**2 + np.array([[0.01], [0.02], [0.03]]))
+
+    def fits(target):
+        return af.fit_many(af.Yuksel(r=np.full(3, 0.1)), d, target).params["r"]
+
+    plain = fits(t)  # outside the context: solved, nothing kept
+    assert len(solves) == 1 and not _entries(cache_dir, "result")
+    with reuse_results():
+        first = fits(t)
+        again = fits(t)
+        assert len(solves) == 2 and np.array_equal(first, again) and np.array_equal(first, plain)
+        changed = fits(t * 1.01)  # another target: solved
+        assert len(solves) == 3 and not np.array_equal(changed, first)
+        for entry in _entries(cache_dir, "result"):  # corrupted: solved again, not trusted
+            entry.write_bytes(entry.read_bytes()[:-8] + b"\0" * 8)
+        assert np.array_equal(fits(t), first) and len(solves) == 4
+
+
+def test_a_scene_reference_curve_is_cached_by_model_and_points(cache_dir):
+    import jax
+
+    import attenfit as af
+    from attenfit._scenes._light_fits import shade
+
+    d = np.geomspace(0.05, 10.0, 40)
+    r = 0.3
+    s = np.sqrt(d * d + r * r)
+    closed = 2 / (s * (s + d))  # Yuksel 2020, eq. 7
+    with jax.enable_x64(True):
+        first = shade(af.Yuksel(r=r), d, "float64")
+        (entry,) = _entries(cache_dir, "values")
+        again = shade(af.Yuksel(r=r), d, "float64")
+        other = shade(af.Yuksel(r=0.2), d, "float64")  # another model: computed, kept apart
+    np.testing.assert_allclose(first, closed, rtol=1e-12)
+    assert np.array_equal(again, first) and len(_entries(cache_dir, "values")) == 2
+    assert not np.allclose(other, first)
+    entry.write_bytes(entry.read_bytes()[:-8] + b"\0" * 8)  # corrupted: computed again
+    with jax.enable_x64(True):
+        assert np.array_equal(shade(af.Yuksel(r=r), d, "float64"), first)
+
+
+def test_minor_log_labels_follow_the_view_span():
+    from attenfit._report import plain_log_ticks
+    from attenfit._report._plots import new_figure
+
+    ax = new_figure((3, 3)).subplots()
+    ax.set_yscale("log")
+    plain_log_ticks(ax.yaxis)
+    minor = ax.yaxis.get_minor_formatter()
+    ax.set_ylim(2, 5)  # under 3 times: every minor tick labelled
+    assert minor.format_ticks([2, 3, 4, 5]) == ["2", "3", "4", "5"]
+    ax.set_ylim(2, 9)  # 3 to 10 times: 2 and 5 times a decade only
+    assert minor.format_ticks([2, 3, 5, 8]) == ["2", "", "5", ""]
+    assert minor(5.0) == "5"
+    ax.set_ylim(0.01, 100)  # a decade or more: the decades' labels only
+    assert minor.format_ticks([0.02, 0.5, 3]) == ["", "", ""]
