@@ -11,11 +11,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from _frame_forms import form_and_model
 
 import attenfit as af
 from attenfit import area
 from attenfit._curves import ClippedRect, FrostbiteRect, ThreeRect
-from attenfit._shaders import area_compiled_cost, evaluate_area_form
+from attenfit._shaders import area_compiled_cost
 from attenfit._shaders._area_export import area_source
 from attenfit._truth import model_inputs
 
@@ -216,11 +217,7 @@ def test_the_point_light_model_of_a_rectangle_is_its_cosine_emitter():
 @pytest.mark.parametrize("model", MODELS, ids=lambda m: m.name)
 def test_the_shader_form_is_the_model(model):
     p, n = _receivers(500, 8)
-    with jax.enable_x64(True):
-        x = model_inputs(model, PANEL, p, n)
-        ref = np.asarray(model(*x))
-    given = dict(zip(model.input_names, (np.asarray(v) for v in x), strict=True))
-    form = evaluate_area_form(model, given, np.float64)
+    form, ref = form_and_model(model, PANEL, p, n)
     scale = 1 / (W * H)  # the facing value's order; the form bakes its literals as float32
     assert np.max(np.abs(form - ref)) < 1e-6 * scale
 
