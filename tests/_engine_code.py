@@ -227,7 +227,7 @@ def engine_rendered_errors(scene, choices, engine: str):
         d = np.linalg.norm(to_l, axis=1)
         lv = to_l / d[:, None]
         n = x.normals[keep] / np.linalg.norm(x.normals[keep], axis=1, keepdims=True)
-        spot = light.is_spot or light.kind == "disk"  # a disk is answered as a spot
+        spot = light.is_spot or light.kind in ("disk", "rect")  # answered as a spot
         axis = np.asarray(light.direction if light.is_spot else light.normal, float)
         cs = -(lv @ (axis / np.linalg.norm(axis)))
         nl = np.sum(n * lv, axis=1)
