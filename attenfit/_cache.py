@@ -37,6 +37,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from ._input import read_capped
+
 __all__ = [
     "LIMITS",
     "clear",
@@ -232,13 +234,10 @@ def _read_entry(path: Path, limit: int) -> bytes | None:
     try:
         if not stat.S_ISREG(os.fstat(fd).st_mode):  # replaced since the lstat
             raise _Bad("is not a regular file (a folder, FIFO, device or socket)")
-        chunks, total = [], 0
-        while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > limit:
-                raise _Bad(f"grew past the {limit:,} bytes an entry of its kind may be")
-        return b"".join(chunks)
+        data = read_capped(fd, limit)
+        if len(data) > limit:
+            raise _Bad(f"grew past the {limit:,} bytes an entry of its kind may be")
+        return data
     except OSError as exc:
         raise _Bad(f"cannot be read ({exc.strerror})") from None
     finally:

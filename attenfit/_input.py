@@ -36,6 +36,7 @@ __all__ = [
     "load_json",
     "load_toml",
     "read_bytes",
+    "read_capped",
     "read_npz",
     "read_text",
     "text_name",
@@ -66,6 +67,16 @@ def text_name(path: str | os.PathLike) -> str:
     return os.fsencode(path).decode("utf-8", "backslashreplace")
 
 
+def read_capped(fd: int, limit: int) -> bytes:
+    """At most `limit + 1` bytes from the open file `fd`, read a MiB at a time: more than
+    `limit` of them says the file is (or grew) over it, and no more is read."""
+    chunks, total = [], 0
+    while total <= limit and (chunk := os.read(fd, min(1 << 20, limit + 1 - total))):
+        chunks.append(chunk)
+        total += len(chunk)
+    return b"".join(chunks)
+
+
 def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
     """The bytes of the regular file `path`, at most `limit` of them.
 
@@ -76,13 +87,10 @@ def read_bytes(path: str | os.PathLike, what: str, limit: int) -> bytes:
     fd = _open_regular(Path(path), what)
     try:
         _check_size(os.fstat(fd).st_size, what, limit)
-        chunks, total = [], 0
-        while chunk := os.read(fd, min(1 << 20, limit + 1 - total)):
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > limit:  # grew while read
-                raise DataFileError(f"{what} grew past {_mib(limit)} while being read")
-        return b"".join(chunks)
+        data = read_capped(fd, limit)
+        if len(data) > limit:  # grew while read
+            raise DataFileError(f"{what} grew past {_mib(limit)} while being read")
+        return data
     except OSError as exc:
         raise DataFileError(f"{what} cannot be read: {exc.strerror}") from None
     finally:
