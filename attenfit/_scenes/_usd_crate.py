@@ -43,6 +43,19 @@ ELEMENT_BYTES = {
 SECTION_BYTES = {"TOKENS": 64, "STRINGS": 8, "FIELDS": 32, "FIELDSETS": 8, "PATHS": 256, "SPECS": 256}  # fmt: skip
 
 
+def _length(src: bytes, i: int, length: int) -> tuple[int, int]:
+    """An LZ4 sequence's length from its 4-bit field `length`: 15 goes on in the bytes from
+    `i`, each added, until one under 255. Returns the length and the index after them."""
+    if length == 15:
+        while True:
+            b = src[i]
+            i += 1
+            length += b
+            if b != 255:
+                break
+    return length, i
+
+
 def _lz4_block(src: bytes, limit: int) -> bytearray:
     """An LZ4 block decompressed (https://github.com/lz4/lz4/blob/dev/doc/lz4_Block_format.md),
     refusing more than `limit` bytes of output."""
@@ -51,28 +64,14 @@ def _lz4_block(src: bytes, limit: int) -> bytearray:
     while i < n:
         token = src[i]
         i += 1
-        lit = token >> 4
-        if lit == 15:
-            while True:
-                b = src[i]
-                i += 1
-                lit += b
-                if b != 255:
-                    break
+        lit, i = _length(src, i, token >> 4)
         out += src[i : i + lit]
         i += lit
         if i >= n:
             break
         off = src[i] | (src[i + 1] << 8)
         i += 2
-        length = token & 15
-        if length == 15:
-            while True:
-                b = src[i]
-                i += 1
-                length += b
-                if b != 255:
-                    break
+        length, i = _length(src, i, token & 15)
         length += 4
         start = len(out) - off
         if off == 0 or start < 0:
