@@ -22,6 +22,8 @@ from typing import ClassVar
 
 import numpy as np
 import pytest
+from _tools import check_hlsl as _check_hlsl
+from _tools import check_wgsl as _check_wgsl
 from _tools import need as _need
 from _tools import run as _run
 
@@ -236,28 +238,12 @@ def test_glsl_validates(tmp_path, version):
 
 
 def test_hlsl_compiles_to_valid_spirv(tmp_path):
-    tool = _need("glslangValidator")
-    body, calls = _sources("hlsl")
-    src = body + f"float4 main(float v : TEXCOORD0) : SV_Target {{ return ({calls}).xxxx; }}\n"
-    (tmp_path / "area.hlsl").write_text(src)
-    _run([tool, "-D", "-V", "-S", "frag", "-e", "main", "-o", "area.spv", "area.hlsl"], tmp_path)
-    if shutil.which("spirv-val"):
-        _run(["spirv-val", "area.spv"], tmp_path)
+    _check_hlsl(tmp_path, "area", *_sources("hlsl"))
 
 
 @pytest.mark.parametrize("tool", ["naga", "tint"])
 def test_wgsl_validates(tmp_path, tool):
-    path = _need(tool)
-    body, calls = _sources("wgsl")
-    src = body + (
-        "@fragment fn main(@location(0) v: f32) -> @location(0) vec4<f32> "
-        f"{{ return vec4<f32>({calls}); }}\n"
-    )
-    counter = iter(range(1000))  # each model's uniform buffer needs its own binding
-    src = re.sub(r"@binding\(0\)", lambda m: f"@binding({next(counter)})", src)
-    (tmp_path / "area.wgsl").write_text(src)
-    _run([path, "area.wgsl"] if tool == "naga" else [path, "--format", "wgsl", "area.wgsl"],
-         tmp_path)  # fmt: skip
+    _check_wgsl(tmp_path, tool, "area", *_sources("wgsl"))
 
 
 def test_cuda_compiles_with_nvrtc():

@@ -24,6 +24,8 @@ import jax.numpy as jnp
 import mpmath
 import numpy as np
 import pytest
+from _tools import check_hlsl as _check_hlsl
+from _tools import check_wgsl as _check_wgsl
 from _tools import need as _need
 from _tools import run as _run
 
@@ -372,29 +374,12 @@ def test_glsl_validator_catches_errors(tmp_path):
 
 
 def test_hlsl_compiles_to_valid_spirv(tmp_path):
-    tool = _need("glslangValidator")
-    src = _sources("hlsl") + (
-        f"float4 main(float v : TEXCOORD0) : SV_Target {{ return ({_calls('hlsl')}).xxxx; }}\n"
-    )
-    (tmp_path / "all.hlsl").write_text(src)
-    _run([tool, "-D", "-V", "-S", "frag", "-e", "main", "-o", "all.spv", "all.hlsl"], tmp_path)
-    if shutil.which("spirv-val"):
-        _run(["spirv-val", "all.spv"], tmp_path)
+    _check_hlsl(tmp_path, "all", _sources("hlsl"), _calls("hlsl"))
 
 
 @pytest.mark.parametrize("tool", ["naga", "tint"])
 def test_wgsl_validates(tmp_path, tool):
-    path = _need(tool)
-    src = _sources("wgsl") + (
-        "@fragment fn main(@location(0) v: f32) -> @location(0) vec4<f32> "
-        f"{{ return vec4<f32>({_calls('wgsl')}); }}\n"
-    )
-    # uniforms: each family's buffer needs its own binding in one module
-    counter = iter(range(1000))
-    src = re.sub(r"@binding\(0\)", lambda m: f"@binding({next(counter)})", src)
-    (tmp_path / "all.wgsl").write_text(src)
-    cmd = [path, "all.wgsl"] if tool == "naga" else [path, "--format", "wgsl", "all.wgsl"]
-    _run(cmd, tmp_path)
+    _check_wgsl(tmp_path, tool, "all", _sources("wgsl"), _calls("wgsl"))
 
 
 # ----------------------------------------------------------------------------- the CLI verb

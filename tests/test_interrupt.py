@@ -587,15 +587,20 @@ def test_sigterm_at_every_step_of_committing_a_scene(tmp_path, monkeypatch, caps
             points.update(range(max(0, i - 1), min(len(calls), i + 4)))
     seen = set()
     for at in sorted(points):
-        for name in ("ans", "out.gltf"):
-            path = tmp_path / name
-            if path.is_dir():
-                shutil.rmtree(path)
-            elif path.exists():
-                path.unlink()
+        _remove(tmp_path, "ans", "out.gltf")
         code, _ = run(at)
         seen.add(_all_or_nothing(tmp_path, code, capsys.readouterr().err))
     assert seen == {"completed", "stopped"}  # both ends of the commit were reached
+
+
+def _remove(folder, *names: str) -> None:
+    """Remove the files or folders `names` in `folder` (a run's outputs), where they exist."""
+    for name in names:
+        path = folder / name
+        if path.is_dir():
+            shutil.rmtree(path)
+        elif path.exists():
+            path.unlink()
 
 
 @pytest.mark.parametrize("delays", [(0.0, 0.002, 0.01, 0.03), (0.1, 0.3, 1.0)])
@@ -606,12 +611,7 @@ def test_sigterm_late_in_a_scene_run_is_all_or_nothing(tmp_path, delays):
     pytest.importorskip("pygltflib")
     _gltf_room(tmp_path / "room.gltf")
     for delay in delays:
-        for name in ("ans", "out.gltf"):
-            path = tmp_path / name
-            if path.is_dir():
-                shutil.rmtree(path)
-            elif path.exists():
-                path.unlink()
+        _remove(tmp_path, "ans", "out.gltf")
         proc = _start(SCENE, tmp_path)
         while proc.poll() is None and not any(TMP_MARK in p.name for p in tmp_path.iterdir()):
             time.sleep(0.002)  # (a run that ends first is judged all the same)
