@@ -61,6 +61,7 @@ from ._rect_models import ClippedRect as ClippedRect
 from ._rect_models import FrostbiteRect as FrostbiteRect
 from ._rect_models import RectModel as RectModel
 from ._rect_models import ThreeRect as ThreeRect
+from ._unreal_rect import UnrealRect as UnrealRect
 from ._tube_models import FrostbiteTube as FrostbiteTube
 from ._tube_models import KarisTube as KarisTube
 from ._tube_models import LambertLine as LambertLine
