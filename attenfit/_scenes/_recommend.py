@@ -6,7 +6,8 @@
    each of the scene's lights at exactly the scene's receivers (no other radius, distance
    or angle is generated).
 2. **Fit every family the scene's constraints allow**, per light, in one `fit_many` solve
-   per family (lights grouped by whether they have a range). The residual of a receiver is
+   per shape of fit, families of the same structure together (`_family_solves`; lights
+   grouped by whether they have a range). The residual of a receiver is
    its judged error (below), so the least-squares fit aims at what is judged. Length
    parameters start at the light's radius; a light's `range` is pinned into the family's
    range parameter (`r_max`, `cutoff`, `range`; Madams' surface-distance `d_max = range - r`
