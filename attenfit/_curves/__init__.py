@@ -37,6 +37,7 @@ from ._windowed import ThreeJS as ThreeJS
 from ._windowed import UnrealExponent as UnrealExponent
 from ._windowed import UnrealWindow as UnrealWindow
 from ._spline import Spline as Spline
+from ._spline import spline_curve as spline_curve
 from ._area import AREA_INPUTS as AREA_INPUTS
 from ._area import INPUT_RANGES as INPUT_RANGES
 from ._area import RECT_INPUTS as RECT_INPUTS
