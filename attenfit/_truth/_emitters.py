@@ -27,7 +27,7 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
-from ._validate import (
+from ._emitter_checks import (
     _bcast,
     _check_positive,
     _check_radius,

@@ -13,8 +13,8 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._curves import AREA_INPUTS, AreaInputs, AreaModel
 from .._errors import BadTypeError, BadValueError
+from ._emitter_checks import _bcast, _dot, _receivers, _safe_norm
 from ._emitters import AbstractEmitter, _kinds
-from ._validate import _bcast, _dot, _receivers, _safe_norm
 
 __all__ = ["area_inputs", "area_irradiance", "frame_inputs", "model_inputs"]
 

@@ -38,8 +38,8 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError
 from ._capsule import capsule_frame, horizon_crossings, stadium_interval
+from ._emitter_checks import _receivers
 from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter
-from ._validate import _receivers
 
 __all__ = ["irradiance"]
 

@@ -43,8 +43,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError
+from ._emitter_checks import _receivers
 from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter
-from ._validate import _receivers
 
 _PI = math.pi
 

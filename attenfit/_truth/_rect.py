@@ -33,9 +33,9 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._curves import RECT_INPUTS
 from .._errors import BadValueError
+from ._emitter_checks import _check_positive, _check_real, _dot, _is_traced, _safe_norm, _unit
 from ._emitters import AbstractFlatEmitter
 from ._irradiance import _one_minus_atan_ratio
-from ._validate import _check_positive, _check_real, _dot, _is_traced, _safe_norm, _unit
 
 __all__ = ["RectEmitter", "rect_irradiance_one"]
 

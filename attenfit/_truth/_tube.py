@@ -69,9 +69,7 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._curves import TUBE_INPUTS
 from .._errors import BadTypeError, BadValueError
-from ._emitters import AbstractSegmentEmitter
-from ._irradiance import _disk_clipped, _disk_unclipped, _gauss_legendre, _safe_sqrt
-from ._validate import (
+from ._emitter_checks import (
     _bcast,
     _check_positive,
     _check_radius,
@@ -81,6 +79,8 @@ from ._validate import (
     _receivers,
     _safe_norm,
 )
+from ._emitters import AbstractSegmentEmitter
+from ._irradiance import _disk_clipped, _disk_unclipped, _gauss_legendre, _safe_sqrt
 
 __all__ = ["TubeEmitter", "tube_irradiance_one"]
 
