@@ -19,6 +19,7 @@ from attenfit._curves import (
     FrostbiteTube,
     KarisTube,
     LambertLine,
+    MrpRect,
     SnyderSphere,
     ThreeRect,
 )
@@ -28,7 +29,14 @@ from attenfit._shaders import area_compiled_cost
 
 def _models(light: str) -> list:
     if light == "rect":
-        return [area.PointLight(), ClippedDisk(), ClippedRect(), ThreeRect(), FrostbiteRect()]
+        return [
+            area.PointLight(),
+            ClippedDisk(),
+            ClippedRect(),
+            ThreeRect(),
+            FrostbiteRect(),
+            MrpRect(),
+        ]
     return [area.PointLight(), SnyderSphere(), KarisTube(), FrostbiteTube(), LambertLine()]
 
 

@@ -87,6 +87,23 @@ def test_every_area_model_exports_in_every_language(model, lang):
     assert src == ex.function_source(model, lang, fname)[0]  # the API's two doors agree
 
 
+FRAME_MODELS = [n for n in area.list_area_models() if n not in {m.name for m in MODELS}]
+
+
+@pytest.mark.parametrize("name", FRAME_MODELS)
+def test_a_frame_models_header_says_what_its_inputs_are(name):
+    """The rect and tube models read the receiver in the light's frame, no `d`: their header
+    says what each input is (the model class's `input_text`), and names no `d`."""
+    cls = area.get_area_model(name)
+    assert "d" not in cls.input_names
+    src = ex.export(name, "glsl")
+    for x in cls.input_names:
+        assert re.search(rf"^// (inputs  :|         ) {x} +\S.*; (length|1)$", src, re.M), x
+    assert "the unit of d" not in src and "distance from the receiver" not in src
+    if "r" in cls.input_names:  # a tube's radius
+        assert re.search(r"^// +r +the tube's radius \(across its axis\); length$", src, re.M)
+
+
 def test_the_header_lists_parameters_and_their_values():
     src = ex.export("hdrp_sphere", "glsl", params={"e": 0.75})
     assert "// params  : a0 = 0.5359050" in src and ", e = 0.75 (baked in)" in src

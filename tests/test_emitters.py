@@ -154,3 +154,14 @@ def test_emitter_from_dict_errors():
         af.emitter_from_dict({"kind": "sphere", "center": [0, 0, 0], "radius": 1, "colour": 1})
     with pytest.raises(af.BadValueError, match="radius must be > 0"):
         af.emitter_from_dict({"kind": "sphere", "center": [0, 0, 0], "radius": -1})
+
+
+def test_the_kinds_are_the_final_shapes_not_their_abstract_bases():
+    """`emitter_from_dict` knows every final shape; the shapes' abstract bases (centred, flat,
+    around a segment) are no kind, and each shape states the facts the builders read."""
+    from attenfit._truth._emitters import _kinds
+
+    kinds = _kinds()
+    assert set(kinds) == {"sphere", "disk", "capsule", "rect", "tube"}
+    for cls, _, _ in kinds.values():
+        assert not getattr(cls, "__abstractmethods__", None), cls.__name__

@@ -15,7 +15,7 @@ from _frame_forms import form_and_model
 
 import attenfit as af
 from attenfit import area
-from attenfit._curves import ClippedRect, FrostbiteRect, ThreeRect
+from attenfit._curves import ClippedRect, FrostbiteRect, MrpRect, ThreeRect
 from attenfit._shaders import area_compiled_cost
 from attenfit._shaders._area_export import area_source
 from attenfit._truth import model_inputs
@@ -25,7 +25,7 @@ C = np.array([0.1, -0.2, 2.0])
 M = np.array([0.0, 0.0, -1.0])  # a ceiling panel, lighting downward
 T = np.array([1.0, 0.0, 0.0])
 PANEL = af.RectEmitter(C, M, T, W, H, intensity=2.0)
-MODELS = [ClippedRect(), ThreeRect(), FrostbiteRect()]
+MODELS = [ClippedRect(), ThreeRect(), FrostbiteRect(), MrpRect()]
 
 
 def _receivers(n: int, seed: int, spread: float = 0.6, facing: bool = False):
@@ -111,6 +111,43 @@ def frostbite_rect_illuminance(
     return sa * 0.2 * sum(cos)
 
 
+def _triangle_solid_angle(a, b, c):
+    """Van Oosterom & Strackee 1983: the solid angle of the triangle with vertices a, b, c
+    seen from the origin, `2 atan2(|a.(b x c)|, abc + (a.b) c + (a.c) b + (b.c) a)`."""
+    la, lb, lc = (np.linalg.norm(v) for v in (a, b, c))
+    num = abs(np.dot(a, np.cross(b, c)))
+    den = la * lb * lc + np.dot(a, b) * lc + np.dot(a, c) * lb + np.dot(b, c) * la
+    return 2 * math.atan2(num, den)
+
+
+def drobot_mrp_illuminance(p, n, c, m, tx, ty, w, h):
+    """E / L of Drobot 2014 ("Physically Based Area Lights", GPU Pro 5, §1.4, the area
+    diffuse approximation algorithm) in world coordinates, as Lagarde & de Rousiers 2014
+    (§4.7, rectangular lights) write it, `E = Omega L <n.l>`, `l` toward the most
+    representative point. The rectangle's solid angle here by Van Oosterom & Strackee
+    (two triangles), not Frostbite's `rectangleSolidAngle`. A normal that misses the light's
+    plane is tipped toward it: its part along the plane, with -1/2 along `m` (attenfit's
+    choice; Drobot leaves the tip open)."""
+    height = float(np.dot(p - c, m))
+    if not height > 0:
+        return 0.0
+    s = n if np.dot(n, m) < 0 else (n - np.dot(n, m) * m) - 0.5 * m
+    s = s / np.linalg.norm(s)
+    p1 = p + s * (height / -np.dot(s, m))  # p': the normal's ray meets the plane
+    pp = p - height * m  # p_p: the receiver's foot on the plane
+    half = (p1 - p) / np.linalg.norm(p1 - p) + (pp - p) / np.linalg.norm(pp - p)
+    pd = p + half * (height / -np.dot(half, m))  # p_d: the halfway vector meets the plane
+    u = np.clip(np.dot(pd - c, tx), -w / 2, w / 2)  # the closest point of the rectangle
+    v = np.clip(np.dot(pd - c, ty), -h / 2, h / 2)
+    l = c + u * tx + v * ty - p
+    cos = max(float(np.dot(n, l / np.linalg.norm(l))), 0.0)
+    k = [
+        c + sx * w / 2 * tx + sy * h / 2 * ty - p for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1))
+    ]
+    omega = _triangle_solid_angle(k[0], k[1], k[2]) + _triangle_solid_angle(k[0], k[2], k[3])
+    return omega * cos
+
+
 def lambert_quadrature(p, n, k: int = 400):
     """E / L of the panel at p (normal n) by the midpoint rule over the rectangle: the
     integrand cos_r cos_e / d^2, cos_r clamped at 0 (the horizon), independent of any
@@ -188,6 +225,40 @@ def test_frostbite_rect_is_its_listing():
         assert got[i] == pytest.approx(want, rel=1e-9, abs=1e-12), i
 
 
+def test_mrp_rect_is_drobots_representative_point():
+    p, n = _receivers(300, 10)
+    p = np.concatenate([p, C + np.array([[0.1, 0.0, -0.2], [0.0, 0.3, -0.05], [0.5, 0.5, -0.1]])])
+    n = np.concatenate([n, [[0.0, 0.0, 1.0], [0.0, 0.6, -0.8], [-0.6, 0.0, 0.8]]])
+    tx, ty, m = _world_frame()
+    with jax.enable_x64(True):
+        got = np.asarray(area.area_irradiance(MrpRect(), PANEL, p, n))
+    assert np.sum(n @ m >= 0) > 50  # normals that miss the plane: the tip is exercised
+    for i in range(len(p)):
+        want = (
+            drobot_mrp_illuminance(p[i], n[i], C, m, tx, ty, W, H)
+            * float(PANEL.intensity)
+            / (W * H)
+        )
+        assert got[i] == pytest.approx(want, rel=1e-9, abs=1e-12), i
+
+
+def test_mrp_rect_under_the_panel_weighs_the_whole_solid_angle():
+    """Right under the centre, facing it, the point is the centre: E / L = Omega, the
+    rectangle's solid angle (a right pyramid's, 4 asin(a b / sqrt((a^2 + h^2)(b^2 + h^2))),
+    Frostbite's `rightPyramidSolidAngle`), above the truth, which weighs each direction by
+    its cosine."""
+    h = 0.3
+    p = (C + h * M)[None]  # below the downward panel, facing it
+    n = -M[None]
+    with jax.enable_x64(True):
+        got = float(area.area_irradiance(MrpRect(), PANEL, p, n)[0])
+        exact = float(af.irradiance(PANEL, p, n)[0])
+    a, b = W / 2, H / 2
+    omega = 4 * math.asin(a * b / math.sqrt((a * a + h * h) * (b * b + h * h)))
+    assert got == pytest.approx(omega * float(PANEL.intensity) / (W * H), rel=1e-12)
+    assert got > exact
+
+
 def test_the_engines_forms_are_close_to_the_truth_where_they_should_be():
     """Facing receivers, the panel small: three.js within its rational fit (1e-3), Frostbite
     within its five points; both far from exact near the panel (their documented limits)."""
@@ -197,8 +268,10 @@ def test_the_engines_forms_are_close_to_the_truth_where_they_should_be():
         exact = np.asarray(af.irradiance(PANEL, p, n))
         three = np.asarray(area.area_irradiance(ThreeRect(), PANEL, p, n))
         fb = np.asarray(area.area_irradiance(FrostbiteRect(), PANEL, p, n))
+        mrp = np.asarray(area.area_irradiance(MrpRect(), PANEL, p, n))
     assert np.max(np.abs(three - exact)[far] / exact[far]) < 2e-3
     assert np.max(np.abs(fb - exact)[far] / exact[far]) < 0.05
+    assert np.max(np.abs(mrp - exact)[far] / exact[far]) < 0.05
 
 
 def test_the_point_light_model_of_a_rectangle_is_its_cosine_emitter():

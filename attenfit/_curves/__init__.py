@@ -60,6 +60,7 @@ from ._area_models import MrpSphere as MrpSphere
 from ._clipped_disk import ClippedDisk as ClippedDisk
 from ._rect_models import ClippedRect as ClippedRect
 from ._rect_models import FrostbiteRect as FrostbiteRect
+from ._rect_models import MrpRect as MrpRect
 from ._rect_models import RectModel as RectModel
 from ._rect_models import ThreeRect as ThreeRect
 from ._unreal_rect import UnrealRect as UnrealRect

@@ -74,6 +74,16 @@ INPUT_RANGES: dict[str, str] = {
     "hw": "positive", "hh": "positive", "hl": "positive",
 }  # fmt: skip
 
+#: What each of `AREA_INPUTS` is, and its unit (`AreaModel.input_text`).
+AREA_INPUT_TEXT: dict[str, str] = {
+    "d": "distance from the receiver to the light's centre (a capsule: to its segment); length",
+    "cos_r": "n.l, the cosine at the receiver (l: the unit vector to the light's centre); 1",
+    "cos_e": "m.(p - c)/d, the cosine at the emitter (m: a disk's normal; 1 for a sphere); 1",
+    "r": "the light's radius; length (the unit of d)",
+    "cos_n": "-n.m, the receiver's normal against a disk's axis (a sphere: cos_r); 1",
+    "g": "the emitter factor (1 for a sphere, max(0, cos_e) for a one-sided disk); 1",
+}
+
 Real = Float[Array, "*shape"]
 
 
@@ -194,6 +204,8 @@ class AreaModel(Model):
     #: as the form's parameters, each with the input it reads (`radius`: `r`).
     form_inputs: ClassVar[tuple[str, ...]] = AREA_FORM_INPUTS
     form_sizes: ClassVar[dict[str, str]] = {"radius": "r"}
+    #: What each of its inputs is, and its unit, by name (the header `attenfit export` prints).
+    input_text: ClassVar[dict[str, str]] = AREA_INPUT_TEXT
     described = ("light", "exact")
 
     #: The lights it is written for: "sphere" (spheres, and capsules at their closest point
@@ -279,6 +291,9 @@ def register_area_model(cls: type[AreaModel]) -> type[AreaModel]:
         raise BadValueError(f"area model {name!r}: light must be sphere, disk, rect, tube or any")
     if cls.inputs != len(cls.input_names):
         raise BadValueError(f"area model {name!r}: inputs must be len(input_names)")
+    untold = [x for x in cls.input_names if x not in cls.input_text]
+    if untold:
+        raise BadValueError(f"area model {name!r}: input_text does not say what {untold} are")
     cls()  # constructs with no arguments
     _REGISTRY[name] = cls
     return cls

@@ -25,6 +25,18 @@ along the normal (`attenfit.RectEmitter`: `L = I / (w h)`).
   rectangle's solid angle (`rectangleSolidAngle`) times the mean of the clamped cosines to its
   four corners and its centre.
 
+* `MrpRect`: Drobot's most representative point (Drobot 2014, "Physically Based Area Lights",
+  GPU Pro 5, §1.4, the area diffuse approximation algorithm after eqs. 1.13-1.14): the ray
+  along the receiver's normal meets the light's plane at `p'` (a normal that misses the
+  plane is first tipped toward it, Drobot's Figure 1.5; the tip here is attenfit's,
+  `_SKEW`), the receiver's foot on the plane is `p_p`, the halfway vector of the unit
+  vectors toward `p'` and `p_p` meets the plane at `p_d`, taken to the rectangle's closest
+  point; the irradiance is the rectangle's solid angle times the clamped cosine toward it,
+  `E = Omega L max(0, n.l_d)`, the form Lagarde & de Rousiers 2014 (§4.7, rectangular area
+  lights) give for Drobot's approximation, with Frostbite's `rectangleSolidAngle`.
+  (Drobot's own weight, `A cos(theta_o) / r^2` at `p_d`, eq. 1.13, exceeds 2 pi near the
+  panel.)
+
 The point-light model of a rectangle is `PointLight(family)` with `AREA_INPUTS`
 (`attenfit.area_inputs` reads a rectangle as a one-sided disk, `g = max(0, cos_e)`).
 
@@ -46,20 +58,37 @@ from ._forms import area_form
 
 __all__ = [
     "FRAME_FORM_INPUTS",
+    "FRAME_INPUT_TEXT",
     "ClippedRect",
     "FrameModel",
     "FrostbiteRect",
     "Ir",
     "Jax",
+    "MrpRect",
     "RectModel",
     "ThreeRect",
     "frame_cross",
     "frame_dot",
+    "rect_solid_angle",
     "solid_angle_cosines",
 ]
 
 #: The per-receiver inputs of a rectangle's or a tube's shader form (its size: parameters).
 FRAME_FORM_INPUTS = ("x", "y", "z", "nx", "ny", "nz")
+#: What each input of a rectangle's or a tube's models is, and its unit (`input_text`):
+#: the receiver in the light's frame, no `d` among them.
+FRAME_INPUT_TEXT: dict[str, str] = {
+    "x": "the receiver's x in the light's frame (its centre the origin; x: a rectangle's width, a tube's axis); length",
+    "y": "the receiver's y in the light's frame (a rectangle's height axis); length",
+    "z": "the receiver's z in the light's frame (a rectangle's normal: lit where z > 0); length",
+    "nx": "the receiver's unit normal in the light's frame, x; 1",
+    "ny": "the receiver's unit normal in the light's frame, y; 1",
+    "nz": "the receiver's unit normal in the light's frame, z; 1",
+    "hw": "the rectangle's half width; length",
+    "hh": "the rectangle's half height; length",
+    "hl": "the tube's half length; length",
+    "r": "the tube's radius (across its axis); length",
+}
 
 
 # ----------------------------------------------------------------------------- back ends
@@ -263,13 +292,20 @@ def _three_rect(bk: Any, x: dict[str, Any], hw: Any, hh: Any) -> Any:
 
 
 # ----------------------------------------------------------------------------- Frostbite
+def rect_solid_angle(bk: Any, q: list[Vec]) -> Any:
+    """Frostbite's `rectangleSolidAngle(worldPos, p0..p3)` (Lagarde & de Rousiers 2014
+    §4.7.3), `q` the corners relative to the receiver: `sum_i acos(-n_i.n_(i+1)) - 2 pi`,
+    `n_i` the unit normal of the plane through the receiver and the edge `q_i q_(i+1)`."""
+    nrm = [_unit(bk, frame_cross(q[i], q[(i + 1) % 4]), f"sn{i}") for i in range(4)]
+    g = [bk.acos(-frame_dot(nrm[i], nrm[(i + 1) % 4])) for i in range(4)]
+    return bk.let("omega", g[0] + g[1] + g[2] + g[3] - 2.0 * math.pi)
+
+
 def solid_angle_cosines(bk: Any, q: list[Vec], centre: Vec, n: Vec) -> Any:
     """Frostbite's `rectangleSolidAngle(worldPos, p0..p3)` times `0.2` times the sum of
     `saturate(dot(normalize(p_i - worldPos), N))` over the corners and the centre
     (Lagarde & de Rousiers 2014 §4.7.3): `q` the corners and `centre` relative to the receiver."""
-    nrm = [_unit(bk, frame_cross(q[i], q[(i + 1) % 4]), f"sn{i}") for i in range(4)]
-    g = [bk.acos(-frame_dot(nrm[i], nrm[(i + 1) % 4])) for i in range(4)]
-    omega = bk.let("omega", g[0] + g[1] + g[2] + g[3] - 2.0 * math.pi)
+    omega = rect_solid_angle(bk, q)
     cos_sum: Any = 0.0
     for i, c in enumerate([*q, centre]):
         u = _unit(bk, c, f"u{i}")
@@ -288,6 +324,31 @@ def _frostbite_rect(bk: Any, x: dict[str, Any], hw: Any, hh: Any) -> Any:
     return bk.select(x["z"] > 0.0, e, 0.0) / (4.0 * hw * hh)
 
 
+# ----------------------------------------------------------------------------- Drobot
+#: How far the normal is tipped toward the light's plane where it does not meet it: the
+#: normal's part along the plane, with z = -1/2 (XLE's `RectangleDiffuseRepPoint` subtracts
+#: 1/2 from n.z, which still misses the plane for n.z >= 1/2).
+_SKEW = 0.5
+
+
+def _mrp_rect(bk: Any, x: dict[str, Any], hw: Any, hh: Any) -> Any:
+    p, n = _frame(x)
+    # p': where the normal meets the plane z = 0 (skewed toward it where it does not)
+    meets = n[2] < 0.0
+    tip = bk.let("mrp_tip", 1.0 / bk.sqrt(n[0] * n[0] + n[1] * n[1] + _SKEW * _SKEW))
+    sx = bk.let("mrp_sx", bk.select(meets, n[0], n[0] * tip))
+    sy = bk.let("mrp_sy", bk.select(meets, n[1], n[1] * tip))
+    sz = bk.let("mrp_sz", bk.select(meets, n[2], -_SKEW * tip))
+    # p_d: the halfway of the unit vectors to p' (s) and to the foot p_p (-z) meets the plane
+    t = bk.let("mrp_t", p[2] / (1.0 - sz))
+    xd = bk.min(bk.max(p[0] + t * sx, -hw), hw)  # the closest point of the rectangle
+    yd = bk.min(bk.max(p[1] + t * sy, -hh), hh)
+    l = _unit(bk, (xd - p[0], yd - p[1], -p[2]), "mrp_l")
+    cos = bk.max(frame_dot(l, n), 0.0)
+    omega = rect_solid_angle(bk, corners(hw, hh, p, _FROSTBITE_ORDER))
+    return bk.select(x["z"] > 0.0, omega * cos, 0.0) / (4.0 * hw * hh)
+
+
 # ----------------------------------------------------------------------------- the models
 class FrameModel(AreaModel):
     """An area model that reads the receiver in its light's frame (abstract): a rectangle's
@@ -298,6 +359,7 @@ class FrameModel(AreaModel):
     `build`, with the `Jax` and the `Ir` back ends."""
 
     form_inputs = FRAME_FORM_INPUTS
+    input_text: ClassVar[dict[str, str]] = FRAME_INPUT_TEXT
     #: The formula for both back ends (a final class's `staticmethod`).
     build: ClassVar[Any]
     #: Where the shader form comes from, whether it is the engine's code, where it parts
@@ -388,3 +450,25 @@ class FrostbiteRect(RectModel):
     build = staticmethod(_frostbite_rect)
     form_source = "Lagarde & de Rousiers 2014 §4.7.3, the rectangle light's illuminance listing"
     form_engine = True
+
+
+@register_area_model
+class MrpRect(RectModel):
+    """Drobot's most representative point for a rectangle's diffuse light, weighted by the
+    rectangle's solid angle: `E = L Omega max(0, n.l_d)`, `l_d` toward the point `p_d` (the
+    module docstring)."""
+
+    name = "mrp_rect"
+    default_free = ()
+    formula = "Omega max(0, n.l_d) / (4 hw hh), l_d toward Drobot's representative point"
+    source = (
+        "Drobot 2014, Physically Based Area Lights (GPU Pro 5), the area diffuse approximation "
+        "algorithm (eqs. 1.13-1.14); E = Omega L <n.l> as Lagarde & de Rousiers 2014 §4.7 state it"
+    )
+    exact = "nowhere (exact in the limit of a small rectangle wholly above the horizon)"
+    build = staticmethod(_mrp_rect)
+    form_source = (
+        "Drobot 2014 (GPU Pro 5) area diffuse approximation; Frostbite rectangleSolidAngle"
+    )
+    form_engine = False
+    form_note = "the skew of a normal that misses the plane is attenfit's (Drobot leaves it open)"

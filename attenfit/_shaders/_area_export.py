@@ -24,26 +24,7 @@ from .._version import __version__
 from ._print import print_form
 from ._text import finish_header, float32_literal, scalar_params
 
-__all__ = ["AREA_INPUT_TEXT", "area_export_form", "area_source"]
-
-#: Each input of an area model's function: what it is, and its unit.
-AREA_INPUT_TEXT: Mapping[str, str] = {
-    "d": "distance from the receiver to the light's centre (a capsule: to its segment); length",
-    "cos_r": "n.l, the cosine at the receiver (l: the unit vector to the light's centre); 1",
-    "cos_e": "m.(p - c)/d, the cosine at the emitter (m: a disk's normal; 1 for a sphere); 1",
-    "r": "the light's radius; length (the unit of d)",
-    "cos_n": "-n.m, the receiver's normal against a disk's axis (a sphere: cos_r); 1",
-    "g": "the emitter factor (1 for a sphere, max(0, cos_e) for a one-sided disk); 1",
-    "x": "the receiver's x in the light's frame (its centre the origin; x: a rectangle's width, a tube's axis); length",
-    "y": "the receiver's y in the light's frame (a rectangle's height axis); length",
-    "z": "the receiver's z in the light's frame (a rectangle's normal: lit where z > 0); length",
-    "nx": "the receiver's unit normal in the light's frame, x; 1",
-    "ny": "the receiver's unit normal in the light's frame, y; 1",
-    "nz": "the receiver's unit normal in the light's frame, z; 1",
-    "hw": "the rectangle's half width; length",
-    "hh": "the rectangle's half height; length",
-    "hl": "the tube's half length; length",
-}
+__all__ = ["area_export_form", "area_source"]
 
 
 def area_source(
@@ -154,7 +135,9 @@ def _header(
     lines.append(f"params  : {shown} ({where})" if shown else "params  : none")
     width = max(map(len, type(model).input_names))
     for k, x in enumerate(type(model).input_names):
-        lines.append(f"{'inputs  :' if k == 0 else ' ' * 9} {x:<{width}}  {AREA_INPUT_TEXT[x]}")
+        lines.append(
+            f"{'inputs  :' if k == 0 else ' ' * 9} {x:<{width}}  {type(model).input_text[x]}"
+        )
     lines.append(
         "output  : E / I in 1/length^2 (I: the light's point-equivalent intensity, "
         "I = pi r^2 L; docs/architecture.md, Conventions)"

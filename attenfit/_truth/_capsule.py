@@ -11,7 +11,7 @@ from typing import NamedTuple
 import jax.numpy as jnp
 from jaxtyping import Array
 
-from ._emitters import _dot
+from ._emitter_checks import _dot
 
 __all__ = ["CapsuleFrame", "capsule_frame", "horizon_crossings", "stadium_interval"]
 

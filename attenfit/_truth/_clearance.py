@@ -32,9 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter
-from ._rect import RectEmitter
-from ._tube import TubeEmitter
+from ._emitters import AbstractEmitter
 
 __all__ = [
     "CLEARANCE",
@@ -63,65 +61,19 @@ def ray_offset(points: np.ndarray) -> np.ndarray:
     return (1.0 + np.abs(p).max(axis=-1)) * RAY_EPSILON
 
 
-def _light_extent(emitter: AbstractEmitter) -> float:
-    """The largest coordinate of any point of the light (its bounding box's)."""
-    r = float(np.asarray(emitter.radius))
-    if isinstance(emitter, CapsuleEmitter | TubeEmitter):
-        ends = np.abs(np.stack([np.asarray(emitter.a), np.asarray(emitter.b)], dtype=np.float64))
-        return float(ends.max()) + r
-    if isinstance(emitter, RectEmitter):
-        return float(np.abs(np.asarray(emitter.corners(), dtype=np.float64)).max())
-    return float(np.abs(np.asarray(emitter.reference_point(), dtype=np.float64)).max()) + r
-
-
 def scene_scale(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:
-    """The float32 scale at each receiver: the largest coordinate of it or of the light (n,)."""
+    """The float32 scale at each receiver: the largest coordinate of it or of the light (n,)
+    (the light's: `AbstractEmitter.extent`, its bounding box's)."""
     p = np.asarray(points, dtype=np.float64)
-    return np.maximum(np.abs(p).max(axis=-1), _light_extent(emitter))
+    return np.maximum(np.abs(p).max(axis=-1), emitter.extent())
 
 
 def surface_distance(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:
-    """Distance (m) from each receiver (n, 3) to the light's surface (n,); 0 inside a solid light.
-
-    Sphere: `|p - c| - r`; capsule: distance to the segment minus r; disk, rectangle and
-    tube (as a solid cylinder): distance to the nearest point of the (closed) shape.
-    """
-    p = np.asarray(points, dtype=np.float64)
-    r = float(np.asarray(emitter.radius))
-    if isinstance(emitter, RectEmitter):
-        rel = p - np.asarray(emitter.center, dtype=np.float64)
-        z = rel @ np.asarray(emitter.normal, dtype=np.float64)
-        s = np.abs(rel @ np.asarray(emitter.tangent, dtype=np.float64)) - float(emitter.width) / 2
-        t = (
-            np.abs(rel @ np.asarray(emitter.bitangent, dtype=np.float64))
-            - float(emitter.height) / 2
-        )
-        return np.hypot(z, np.hypot(np.maximum(s, 0.0), np.maximum(t, 0.0)))
-    if isinstance(emitter, TubeEmitter):  # the solid cylinder's
-        a = np.asarray(emitter.a, dtype=np.float64)
-        ab = np.asarray(emitter.b, dtype=np.float64) - a
-        ell = float(np.linalg.norm(ab))
-        z = (p - a) @ (ab / ell)
-        rho = np.linalg.norm((p - a) - z[:, None] * (ab / ell), axis=1)
-        dz = np.maximum(np.maximum(-z, z - ell), 0.0)
-        return np.hypot(np.maximum(rho - r, 0.0), dz)
-    if isinstance(emitter, DiskEmitter):
-        c = np.asarray(emitter.center, dtype=np.float64)
-        m = np.asarray(emitter.normal, dtype=np.float64)
-        m = m / np.linalg.norm(m)
-        rel = p - c
-        z = rel @ m
-        s = np.linalg.norm(rel - z[:, None] * m, axis=1)
-        return np.hypot(z, np.maximum(s - r, 0.0))
-    if isinstance(emitter, CapsuleEmitter):
-        a = np.asarray(emitter.a, dtype=np.float64)
-        ab = np.asarray(emitter.b, dtype=np.float64) - a
-        den = float(ab @ ab)
-        t = np.clip((p - a) @ ab / den, 0.0, 1.0) if den > 0 else np.zeros(len(p))
-        dist = np.linalg.norm(p - (a + t[:, None] * ab), axis=1)
-    else:
-        dist = np.linalg.norm(p - np.asarray(emitter.reference_point(), dtype=np.float64), axis=1)
-    return np.maximum(dist - r, 0.0)
+    """Distance (m) from each receiver (n, 3) to the light's surface (n,); 0 inside a solid
+    light (`AbstractEmitter.surface_distance`: a sphere's `|p - c| - r`, a capsule's distance
+    to its segment minus r; a disk's, a rectangle's and a tube's, as a solid cylinder, to the
+    nearest point of the closed shape)."""
+    return emitter.surface_distance(np.asarray(points, dtype=np.float64))
 
 
 def too_close(emitter: AbstractEmitter, points: np.ndarray) -> np.ndarray:

@@ -27,17 +27,9 @@ from .._budget import budget
 from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from .._input import load_json, read_npz
 from .._version import __version__
-from ._clearance import CLEARANCE, scene_scale, surface_distance, too_close
-from ._emitters import (
-    AbstractEmitter,
-    CapsuleEmitter,
-    DiskEmitter,
-    SphereEmitter,
-    emitter_from_dict,
-)
+from ._clearance import CLEARANCE, scene_scale, too_close
+from ._emitters import AbstractEmitter, emitter_from_dict
 from ._irradiance import irradiance
-from ._rect import RectEmitter
-from ._tube import TubeEmitter
 
 __all__ = [
     "FORMAT",
@@ -287,17 +279,6 @@ def _dtype(dtype: Any) -> np.dtype:
     return dt
 
 
-#: The flat emitters: no inside, receivers along their normal, on their lit side.
-FLAT = (DiskEmitter, RectEmitter)
-#: The emitters around a segment `a -> b`: receivers beside it, distances from it.
-SEGMENT = (CapsuleEmitter, TubeEmitter)
-
-
-def _solid_radius(emitter: AbstractEmitter) -> float:
-    """Distance from the reference point within which a receiver may be inside a solid emitter."""
-    return 0.0 if isinstance(emitter, FLAT) else float(emitter.radius)
-
-
 def _check_reach(far: float, dtype: Any) -> None:
     """Refuse receivers so far from the light (m) that d^2 overflows `dtype`."""
     limit = math.sqrt(float(np.finfo(dtype).max)) / 16
@@ -364,12 +345,6 @@ def _unit_np(v: Sequence[float], name: str) -> np.ndarray:
     return v / np.linalg.norm(v)
 
 
-def _perpendicular(e: np.ndarray) -> np.ndarray:
-    helper = np.array([1.0, 0, 0]) if abs(e[0]) < 0.9 else np.array([0, 1.0, 0])
-    w = np.cross(e, helper)
-    return w / np.linalg.norm(w)
-
-
 def facing_sweep(
     emitter: AbstractEmitter,
     d_min: float,
@@ -390,21 +365,14 @@ def facing_sweep(
     n = _receivers_within_budget(_count("n", n))
     if d_max < d_min:
         raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
-    solid = _solid_radius(emitter)
+    solid = emitter.solid_radius
     if d_min <= solid:
         raise BadValueError(
             f"d_min ({d_min}) must exceed the {emitter.kind}'s radius ({solid}): receivers would be inside"
         )
     dt = _dtype(dtype)
     c = np.asarray(emitter.reference_point(), dtype=np.float64)
-    if isinstance(emitter, SphereEmitter):
-        direction = np.array([0.0, 0.0, -1.0])
-    elif isinstance(emitter, FLAT):
-        direction = np.asarray(emitter.normal, dtype=np.float64)
-    else:
-        ab = np.asarray(emitter.b, dtype=np.float64) - np.asarray(emitter.a, dtype=np.float64)
-        e = ab / np.linalg.norm(ab) if np.linalg.norm(ab) > 0 else np.array([0.0, 0.0, 1.0])
-        direction = _perpendicular(e)
+    direction = emitter.facing_direction()
     d = np.geomspace(d_min, d_max, n)
     points = c[None, :] + d[:, None] * direction[None, :]
     normals = np.broadcast_to(-direction, points.shape)
@@ -468,7 +436,7 @@ def plane_receivers(
     ys = np.linspace(-extent, extent, ny)
     X, Y = np.meshgrid(xs, ys)  # (ny, nx)
     pts = foot[None, :] + X.reshape(-1, 1) * ex[None, :] + Y.reshape(-1, 1) * ey[None, :]
-    keep = ~_inside(emitter, pts) & ~too_close(emitter, pts)  # too close: _clearance.py
+    keep = ~emitter.inside(pts) & ~too_close(emitter, pts)  # too close: _clearance.py
     index = np.nonzero(keep)[0]
     if index.size == 0:
         raise BadValueError(
@@ -487,28 +455,6 @@ def plane_receivers(
         "up": up_v.tolist(),
     }
     return _exact(emitter, pts, normals, prov, dt)
-
-
-def _inside(emitter: AbstractEmitter, pts: np.ndarray, margin: float = 1e-9) -> np.ndarray:
-    """Receivers on or inside a solid emitter (with a relative `margin`, so float32 is safe)."""
-    if isinstance(emitter, FLAT):
-        return np.zeros(len(pts), dtype=bool)
-    r = float(emitter.radius)
-    if isinstance(emitter, TubeEmitter):
-        return surface_distance(emitter, pts) <= r * margin
-    if isinstance(emitter, SphereEmitter):
-        dist = np.linalg.norm(pts - np.asarray(emitter.center, dtype=np.float64), axis=1)
-    else:
-        dist = _segment_distance(emitter, pts)
-    return dist <= r * (1 + margin)
-
-
-def _segment_distance(emitter: CapsuleEmitter | TubeEmitter, pts: np.ndarray) -> np.ndarray:
-    a = np.asarray(emitter.a, dtype=np.float64)
-    ab = np.asarray(emitter.b, dtype=np.float64) - a
-    den = float(ab @ ab)
-    t = np.clip((pts - a) @ ab / den, 0, 1) if den > 0 else np.zeros(len(pts))
-    return np.linalg.norm(pts - (a + t[:, None] * ab), axis=1)
 
 
 def random_receivers(
@@ -536,13 +482,13 @@ def random_receivers(
         raise BadValueError(f"d_max ({d_max}) must be >= d_min ({d_min})")
     if isinstance(seed, bool) or not isinstance(seed, int | np.integer):
         raise BadTypeError(f"seed must be an integer, got {seed!r}")
-    solid = _solid_radius(emitter)
+    solid = emitter.solid_radius
     if d_min <= solid:
         raise BadValueError(
             f"d_min ({d_min}) must exceed the {emitter.kind}'s radius ({solid}): receivers would be inside"
         )
     dt = _dtype(dtype)
-    _check_reach(d_max + 2 * _solid_radius(emitter) + float(getattr(emitter, "length", 0.0)), dt)
+    _check_reach(d_max + 2 * emitter.solid_radius + emitter.core_length, dt)
     rng = np.random.default_rng(int(seed))
     pts = _random_points(emitter, n, d_min, d_max, rng)
     normals = _random_normals(emitter, pts, rng)
@@ -563,16 +509,9 @@ def _random_points(emitter, n: int, d_min: float, d_max: float, rng) -> np.ndarr
     while have < n:
         k = 2 * (n - have) + 8
         d = np.exp(rng.uniform(math.log(d_min), math.log(d_max), size=k))
-        if isinstance(emitter, SEGMENT):
-            a = np.asarray(emitter.a, dtype=np.float64)
-            b = np.asarray(emitter.b, dtype=np.float64)
-            base = a + rng.uniform(0, 1, size=(k, 1)) * (b - a)
-        else:
-            base = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), (k, 3))
-        p = base + d[:, None] * _unit_vectors(rng, k)
-        ok = ~_inside(emitter, p, margin=1e-6) & ~too_close(emitter, p)
-        if isinstance(emitter, SEGMENT):
-            ok &= _segment_distance(emitter, p) >= d_min
+        p = emitter.core_samples(rng, k) + d[:, None] * _unit_vectors(rng, k)
+        ok = ~emitter.inside(p, margin=1e-6) & ~too_close(emitter, p)
+        ok &= emitter.core_distance(p) >= d_min  # a centre's: d >= d_min, to rounding
         pts_list.append(p[ok])
         have += int(ok.sum())
     return np.concatenate(pts_list)[:n]
@@ -580,14 +519,11 @@ def _random_points(emitter, n: int, d_min: float, d_max: float, rng) -> np.ndarr
 
 def _random_normals(emitter, pts: np.ndarray, rng) -> np.ndarray:
     """Half uniform on the sphere, half with `n.l` uniform in the horizon-straddling band."""
-    n, r = len(pts), float(emitter.radius)
-    if isinstance(emitter, SEGMENT):
-        target = np.asarray(emitter.closest_point(pts), dtype=np.float64)
-    else:
-        target = np.broadcast_to(np.asarray(emitter.reference_point(), dtype=np.float64), pts.shape)
+    n = len(pts)
+    target = np.asarray(emitter.closest_point(pts), dtype=np.float64)
     dp = np.linalg.norm(target - pts, axis=1)
     l = (target - pts) / dp[:, None]
-    sin_a = np.sin(np.arctan(r / dp)) if isinstance(emitter, FLAT) else np.clip(r / dp, 0, 1)
+    sin_a = emitter.apparent_sine(dp)
     uniform = rng.uniform(size=n) < 0.5
     cos_t = np.where(uniform, rng.uniform(-1, 1, size=n), rng.uniform(-1, 1, size=n) * sin_a)
     t1 = np.cross(l, _unit_vectors(rng, n))

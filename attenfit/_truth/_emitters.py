@@ -1,4 +1,4 @@
-"""Lambertian area emitters: sphere, one- or two-sided disk, and capsule.
+"""Lambertian area emitters: the abstract bases, and the sphere, one- or two-sided disk and capsule.
 
 Every emitter has uniform radiance `L` over its surface and a point-equivalent intensity
 `I` (default 1), related by Yuksel's normalisation `L = I / (pi r^2)` (docs/architecture.md, Conventions;
@@ -22,155 +22,42 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
-
-
-# ----------------------------------------------------------------------------- validation
-def _is_traced(x: Any) -> bool:
-    return isinstance(x, jax.core.Tracer)
-
-
-def _float_dtype(x: Any) -> Any:
-    """The float dtype to store `x` in: its own if floating, else JAX's default float."""
-    dt = getattr(x, "dtype", None)
-    if dt is not None and jnp.issubdtype(dt, jnp.floating):
-        return dt
-    return jax.dtypes.canonicalize_dtype(jnp.float64)
-
-
-def _check_real(name: str, x: Any, shape: tuple[int, ...]) -> Any:
-    """Check a concrete real value of `shape`; return it as a JAX array."""
-    if _is_traced(x):
-        return x
-    if isinstance(x, str | bytes) or x is None:
-        raise BadTypeError(f"{name} must be a real number or array, got {type(x).__name__}")
-    try:
-        arr = np.asarray(x)
-    except Exception as exc:  # ragged lists and the like
-        raise BadTypeError(f"{name} must be a real number or array, got {x!r}") from exc
-    if arr.dtype == bool or not (
-        np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)
-    ):
-        raise BadTypeError(f"{name} must be real (float or int), got dtype {arr.dtype}")
-    if arr.shape != shape:
-        want = "a scalar" if shape == () else f"shape {shape}"
-        raise BadValueError(f"{name} must be {want}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise BadValueError(f"{name} must be finite, got {arr.tolist()}")
-    dt = _float_dtype(x)
-    with np.errstate(over="ignore"):  # an overflow is reported just below
-        cast = arr.astype(dt)  # numpy, so this check also runs while jit is tracing
-    if not np.all(np.isfinite(cast)):
-        raise BadValueError(f"{name} = {arr.tolist()} overflows {np.dtype(dt)}")
-    return jnp.asarray(x, dtype=dt)
-
-
-def _check_positive(name: str, x: Any) -> Any:
-    out = _check_real(name, x, ())
-    if not _is_traced(x) and not float(np.asarray(x)) > 0:
-        raise BadValueError(f"{name} must be > 0, got {float(np.asarray(x))!r}")
-    return out
-
-
-def _check_radius(name: str, x: Any) -> Any:
-    """A positive radius whose square is a normal number of its dtype (else r^2, L overflow)."""
-    out = _check_positive(name, x)
-    if not _is_traced(x):
-        dt = np.dtype(_float_dtype(x))
-        fi = np.finfo(dt)
-        lo, hi = math.sqrt(float(fi.tiny)), math.sqrt(float(fi.max))
-        if not lo < float(np.asarray(x)) < hi:
-            raise BadValueError(
-                f"{name} must lie within ({lo:.3g}, {hi:.3g}) in {dt} (its square must be "
-                f"a normal number), got {float(np.asarray(x)):g}"
-            )
-    return out
-
-
-def _normalise(v: Array) -> Array:
-    """`v / |v|` along the last axis, scaled to the order of 1 first: the squares of a normal
-    like [0, 0, 1e-200] underflow (and of [1e300, 0, 0] overflow) before the square root."""
-    m = jnp.max(jnp.abs(v), axis=-1, keepdims=True)
-    v = v / jnp.where(m > 0, m, 1)
-    return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
-
-
-def _unit(name: str, x: Any) -> Any:
-    out = _check_real(name, x, (3,))
-    if not _is_traced(x):
-        if not float(np.max(np.abs(np.asarray(x, dtype=np.float64)))) > 0:
-            raise BadValueError(f"{name} must be a non-zero 3-vector, got {np.asarray(x).tolist()}")
-    return _normalise(out)
-
-
-def _dot(a: Array, b: Array) -> Array:
-    return jnp.sum(a * b, axis=-1)
-
-
-def _safe_norm(v: Array) -> Array:
-    """|v| over the last axis, with gradient 0 (not NaN) at v = 0."""
-    n2 = _dot(v, v)
-    pos = n2 > 0
-    return jnp.where(pos, jnp.sqrt(jnp.where(pos, n2, 1)), 0)
-
-
-def _real_input(name: str, x: Any) -> Any:
-    """Refuse (eagerly) a concrete receiver array that is not real: complex, object, text, bool."""
-    if _is_traced(x):
-        return x
-    dt = getattr(x, "dtype", None)
-    if dt is None or np.dtype(dt).kind == "O":
-        try:
-            x = np.asarray(x)
-        except Exception as exc:  # ragged lists and the like
-            raise BadTypeError(f"{name} must be a real array [..., 3], got {x!r}") from exc
-        dt = x.dtype
-    if np.dtype(dt).kind == "b" or not (
-        jnp.issubdtype(dt, jnp.floating) or jnp.issubdtype(dt, jnp.integer)
-    ):
-        raise BadTypeError(f"{name} must be real (float or int), got dtype {dt}")
-    return x
-
-
-def _receivers(points: ArrayLike, normals: ArrayLike) -> tuple[Array, Array]:
-    """Points and unit normals as float arrays of one dtype, broadcast to one shape [..., 3]."""
-    p = jnp.asarray(_real_input("points", points))
-    n = jnp.asarray(_real_input("normals", normals))
-    dt = _float_dtype(p) if jnp.issubdtype(p.dtype, jnp.floating) else _float_dtype(n)
-    p = p.astype(dt)
-    n = n.astype(dt)
-    if p.shape[-1:] != (3,) or n.shape[-1:] != (3,):
-        raise BadValueError(
-            f"points and normals must have a last axis of 3, got shapes {p.shape} and {n.shape}"
-        )
-    try:
-        shape = jnp.broadcast_shapes(p.shape, n.shape)
-    except ValueError:
-        raise BadValueError(
-            f"points {p.shape} and normals {n.shape} must have the same (or broadcastable) shapes"
-        ) from None
-    p = jnp.broadcast_to(p, shape)
-    n = jnp.broadcast_to(n, shape)
-    return p, _normalise(n)
-
-
-def _bcast(x: Array, like: Array) -> Array:
-    """An emitter vector field (3,) cast to `like`'s dtype and rank (explicit, for strict rank promotion)."""
-    x = jnp.asarray(x).astype(like.dtype)
-    return jnp.broadcast_to(x, like.shape[:-1] + x.shape[-1:])
+from ._emitter_checks import (
+    _bcast,
+    _check_positive,
+    _check_radius,
+    _check_real,
+    _dot,
+    _receivers,
+    _safe_norm,
+    _unit,
+)
 
 
 # ----------------------------------------------------------------------------- emitters
 class AbstractEmitter(eqx.Module):
-    """A Lambertian emitter of uniform radiance `L = I / (pi r^2)` (docs/architecture.md, Conventions)."""
+    """A Lambertian emitter of uniform radiance `L = I / (pi r^2)` (docs/architecture.md, Conventions).
+
+    Besides its irradiance, each shape states the geometry the rest of attenfit reads from
+    it, so that a new shape is written in its own class: its **core** (the point or segment
+    distances are measured from: `closest_point`, `core_distance`, `core_samples`,
+    `core_length`), where receivers may not be (`solid_radius`, `inside`,
+    `surface_distance`, `extent`), how the builders place receivers (`facing_direction`,
+    `apparent_sine`), and what an area model reads (`area_factors`; a shape with its own
+    models, `frame_input_names` and `light_frame`).
+    """
 
     #: Name used in files and on the command line.
     kind: ClassVar[str]
+    #: The inputs of the area models written for this shape alone (`attenfit._curves`
+    #: `RECT_INPUTS`, `TUBE_INPUTS`), read by `light_frame`; () where its models read
+    #: `AreaInputs` only.
+    frame_input_names: eqx.AbstractClassVar[tuple[str, ...]]
 
     radius: eqx.AbstractVar[Array]
     intensity: eqx.AbstractVar[Array]
@@ -199,23 +86,216 @@ class AbstractEmitter(eqx.Module):
         class (the rectangle, `_rect`); None for those `_irradiance` holds."""
         return None
 
+    # ------------------------------------------------------------------ the core
+    @abc.abstractmethod
+    def closest_point(self, points: Float[ArrayLike, "*b 3"]) -> Float[Array, "*b 3"]:
+        """The point of the light's core nearest each of `points` (JAX): its centre, or the
+        nearest point of its segment (where `area_inputs` measures `d` from)."""
 
-def flat_point_light(
-    emitter: AbstractEmitter, points: ArrayLike, normals: ArrayLike, two_sided: bool = False
-) -> tuple[Array, Array]:
-    """A flat light's stand-in point light (a disk, a rectangle): the distance to its centre and
-    `I * g * max(0, n.l)`, `g = max(0, m.(p - c)/d)` (`|.|` if two-sided); 0 at `d = 0`."""
-    p, n = _receivers(points, normals)
-    dv = _bcast(emitter.center, p) - p
-    d = _safe_norm(dv)
-    dsafe = jnp.where(d > 0, d, 1)
-    cos_r = _dot(n, dv) / dsafe
-    cos_e = -_dot(_bcast(emitter.normal, p), dv) / dsafe
-    g = jnp.abs(cos_e) if two_sided else jnp.maximum(cos_e, 0)
-    return d, emitter.intensity.astype(p.dtype) * g * jnp.maximum(cos_r, 0)
+    @abc.abstractmethod
+    def core_distance(self, pts: np.ndarray) -> np.ndarray:
+        """Distance (m) of each receiver `(n, 3)` from the light's core (numpy, float64)."""
+
+    @abc.abstractmethod
+    def core_samples(self, rng: np.random.Generator, k: int) -> np.ndarray:
+        """`k` uniform points of the core `(k, 3)` (a centre: itself, drawing nothing)."""
+
+    @property
+    @abc.abstractmethod
+    def core_length(self) -> float:
+        """The core's length (m): 0 for a centre, the segment's length."""
+
+    # ------------------------------------------------------------------ where receivers may be
+    @property
+    @abc.abstractmethod
+    def solid_radius(self) -> float:
+        """How far from its core (m) a receiver may be inside the light (0: a flat light)."""
+
+    @abc.abstractmethod
+    def inside(self, pts: np.ndarray, margin: float = 1e-9) -> np.ndarray:
+        """Receivers `(n, 3)` on or inside the light, with a relative `margin` (n,) bool."""
+
+    @abc.abstractmethod
+    def surface_distance(self, pts: np.ndarray) -> np.ndarray:
+        """Distance (m) from each receiver `(n, 3)` to the light's surface; 0 inside it."""
+
+    @abc.abstractmethod
+    def extent(self) -> float:
+        """The largest coordinate of any point of the light (its bounding box's), m."""
+
+    # ------------------------------------------------------------------ receivers of the builders
+    @abc.abstractmethod
+    def facing_direction(self) -> np.ndarray:
+        """The unit direction from the centre along which `facing_sweep` places receivers."""
+
+    @abc.abstractmethod
+    def apparent_sine(self, dist: np.ndarray) -> np.ndarray:
+        """The sine of the light's apparent angular radius at distances `dist` from its core."""
+
+    # ------------------------------------------------------------------ what area models read
+    @abc.abstractmethod
+    def area_factors(
+        self, p: Array, n: Array, dv: Array, dsafe: Array, cos_r: Array, r: Array
+    ) -> tuple[Array, Array, Array]:
+        """`(cos_e, cos_n, g)` of `AreaInputs` at receivers `p`, unit normals `n`, with `dv`
+        the vector to `closest_point`, `dsafe` its length (1 where 0) and `r` the radius."""
+
+    @abc.abstractmethod
+    def light_frame(self, dtype: Any) -> tuple[Array, Array, Array, tuple[Array, ...]]:
+        """`(centre, x axis, z axis, sizes)` of the frame its own models read
+        (`attenfit.frame_inputs`); a shape without such models raises `BadTypeError`."""
 
 
-class SphereEmitter(AbstractEmitter):
+def _no_frame(self: AbstractEmitter, dtype: Any) -> Any:
+    raise BadTypeError(
+        f"frame inputs are for a RectEmitter or a TubeEmitter, got {type(self).__name__}"
+    )
+
+
+def _perpendicular(e: np.ndarray) -> np.ndarray:
+    helper = np.array([1.0, 0, 0]) if abs(e[0]) < 0.9 else np.array([0, 1.0, 0])
+    w = np.cross(e, helper)
+    return w / np.linalg.norm(w)
+
+
+def _f64(x: Any) -> np.ndarray:
+    return np.asarray(x, dtype=np.float64)
+
+
+class AbstractCentredEmitter(AbstractEmitter):
+    """A light whose core is its centre (a sphere, a disk, a rectangle)."""
+
+    center: eqx.AbstractVar[Array]
+
+    def reference_point(self) -> Array:
+        return self.center
+
+    def closest_point(self, points):
+        return _bcast(self.reference_point(), jnp.asarray(points))
+
+    def core_distance(self, pts):
+        return np.linalg.norm(pts - _f64(self.center), axis=1)
+
+    def core_samples(self, rng, k):
+        return np.broadcast_to(_f64(self.reference_point()), (k, 3))
+
+    @property
+    def core_length(self) -> float:
+        return 0.0
+
+
+class AbstractFlatEmitter(AbstractCentredEmitter):
+    """A flat one- or two-sided light of unit `normal` (a disk, a rectangle): no inside;
+    receivers along its normal; read by area models as a disk (`g = max(0, cos_e)`)."""
+
+    normal: eqx.AbstractVar[Array]
+    two_sided: eqx.AbstractVar[bool]
+
+    def point_light(self, points, normals):
+        """Distance to the centre and `I * g * max(0, n.l)`, `g = max(0, m.(p - c)/d)`
+        (`|.|` if two-sided); the weight is 0 at `d = 0`."""
+        p, n = _receivers(points, normals)
+        dv = _bcast(self.center, p) - p
+        d = _safe_norm(dv)
+        dsafe = jnp.where(d > 0, d, 1)
+        cos_r = _dot(n, dv) / dsafe
+        cos_e = -_dot(_bcast(self.normal, p), dv) / dsafe
+        g = jnp.abs(cos_e) if self.two_sided else jnp.maximum(cos_e, 0)
+        return d, self.intensity.astype(p.dtype) * g * jnp.maximum(cos_r, 0)
+
+    @property
+    def solid_radius(self) -> float:
+        return 0.0
+
+    def inside(self, pts, margin=1e-9):
+        return np.zeros(len(pts), dtype=bool)
+
+    def facing_direction(self):
+        return _f64(self.normal)
+
+    def apparent_sine(self, dist):
+        return np.sin(np.arctan(float(self.radius) / dist))
+
+    def area_factors(self, p, n, dv, dsafe, cos_r, r):
+        """`cos_e = m.(p - c)/d` (negative behind a one-sided light), `cos_n = -n.m`,
+        `g = max(0, cos_e)`; two-sided: read from the face the receiver sees."""
+        m = _bcast(self.normal, p)
+        cos_e = -_dot(m, dv) / dsafe
+        cos_n = -_dot(n, m)
+        if self.two_sided:
+            one = jnp.ones_like(dsafe)
+            flip = jnp.where(cos_e < 0, -one, one)
+            cos_e, cos_n = cos_e * flip, cos_n * flip
+        return cos_e, cos_n, jnp.maximum(cos_e, 0)
+
+
+class AbstractSegmentEmitter(AbstractEmitter):
+    """A light around the segment `a -> b` (a capsule, a tube): distances from the segment,
+    receivers beside it, shaded as a sphere at the closest point times its factor `g`."""
+
+    a: eqx.AbstractVar[Array]
+    b: eqx.AbstractVar[Array]
+
+    @property
+    def length(self) -> Array:
+        """The segment's length `|b - a|` (m)."""
+        return _safe_norm(self.b - self.a)
+
+    def closest_point(self, points: Float[ArrayLike, "*b 3"]) -> Float[Array, "*b 3"]:
+        """The point of the segment closest to each of `points`."""
+        p = jnp.asarray(points)
+        a = _bcast(self.a, p)
+        ab = _bcast(self.b, p) - a
+        den = _dot(ab, ab)
+        t = jnp.clip(_dot(p - a, ab) / jnp.where(den > 0, den, 1), 0, 1)
+        return a + t[..., None] * ab
+
+    def core_distance(self, pts):
+        a = _f64(self.a)
+        ab = _f64(self.b) - a
+        den = float(ab @ ab)
+        t = np.clip((pts - a) @ ab / den, 0, 1) if den > 0 else np.zeros(len(pts))
+        return np.linalg.norm(pts - (a + t[:, None] * ab), axis=1)
+
+    def core_samples(self, rng, k):
+        a, b = _f64(self.a), _f64(self.b)
+        return a + rng.uniform(0, 1, size=(k, 1)) * (b - a)
+
+    @property
+    def core_length(self) -> float:
+        return float(self.length)
+
+    @property
+    def solid_radius(self) -> float:
+        return float(self.radius)
+
+    def extent(self):
+        ends = np.abs(np.stack([np.asarray(self.a), np.asarray(self.b)], dtype=np.float64))
+        return float(ends.max()) + float(np.asarray(self.radius))
+
+    def facing_direction(self):
+        ab = _f64(self.b) - _f64(self.a)
+        e = ab / np.linalg.norm(ab) if np.linalg.norm(ab) > 0 else np.array([0.0, 0.0, 1.0])
+        return _perpendicular(e)
+
+    def apparent_sine(self, dist):
+        return np.clip(float(self.radius) / dist, 0, 1)
+
+    def area_factors(self, p, n, dv, dsafe, cos_r, r):
+        """`cos_e = 1`, `cos_n = cos_r` (a sphere at the closest point) and `g` the
+        projected-area factor (`projected_factor`) towards the closest point."""
+        ab = _bcast(self.b, p) - _bcast(self.a, p)
+        l = dv / dsafe[..., None]
+        sin_psi = _safe_norm(jnp.cross(l, ab))  # |b - a| sin(psi)
+        return jnp.ones_like(dsafe), cos_r, self.projected_factor(l, ab, sin_psi, r)
+
+    @abc.abstractmethod
+    def projected_factor(self, l: Array, ab: Array, sin_psi: Array, r: Array) -> Array:
+        """The light's projected area seen along `l` over `pi r^2` (`ab = b - a`,
+        `sin_psi = |ab| sin(psi)`, `psi` the angle between `l` and the axis)."""
+
+
+class SphereEmitter(AbstractCentredEmitter):
     """A Lambertian sphere of centre `center` (m), radius `radius` (m), intensity `intensity`.
 
     Radiance `L = I / (pi r^2)`; isotropic intensity `I` (projected area `pi r^2` in every
@@ -227,14 +307,12 @@ class SphereEmitter(AbstractEmitter):
     radius: Float[Array, ""]
     intensity: Float[Array, ""]
     kind: ClassVar[str] = "sphere"
+    frame_input_names: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, center: ArrayLike, radius: ArrayLike, intensity: ArrayLike = 1.0):
         self.center = _check_real("center", center, (3,))
         self.radius = _check_radius("radius", radius)
         self.intensity = _check_positive("intensity", intensity)
-
-    def reference_point(self) -> Array:
-        return self.center
 
     def point_light(self, points, normals):
         """Distance to the centre and `I * max(0, n.l)`, `l` the unit vector to the centre."""
@@ -252,8 +330,35 @@ class SphereEmitter(AbstractEmitter):
             "intensity": float(self.intensity),
         }
 
+    @property
+    def solid_radius(self) -> float:
+        return float(self.radius)
 
-class DiskEmitter(AbstractEmitter):
+    def inside(self, pts, margin=1e-9):
+        return self.core_distance(pts) <= float(self.radius) * (1 + margin)
+
+    def surface_distance(self, pts):
+        """`|p - c| - r`, 0 inside."""
+        return np.maximum(self.core_distance(_f64(pts)) - float(np.asarray(self.radius)), 0.0)
+
+    def extent(self):
+        return float(np.abs(_f64(self.center)).max()) + float(np.asarray(self.radius))
+
+    def facing_direction(self):
+        return np.array([0.0, 0.0, -1.0])
+
+    def apparent_sine(self, dist):
+        return np.clip(float(self.radius) / dist, 0, 1)
+
+    def area_factors(self, p, n, dv, dsafe, cos_r, r):
+        """The disk that faces the receiver: `cos_e = 1`, `cos_n = cos_r`, `g = 1`."""
+        one = jnp.ones_like(dsafe)
+        return one, cos_r, one
+
+    light_frame = _no_frame
+
+
+class DiskEmitter(AbstractFlatEmitter):
     """A flat Lambertian disk: centre `center` (m), unit `normal` (normalised here), `radius` (m).
 
     One-sided by default: it emits only into the half-space `(x - c).m > 0`; `two_sided=True`
@@ -267,6 +372,7 @@ class DiskEmitter(AbstractEmitter):
     intensity: Float[Array, ""]
     two_sided: bool = eqx.field(static=True)
     kind: ClassVar[str] = "disk"
+    frame_input_names: ClassVar[tuple[str, ...]] = ()
 
     def __init__(
         self,
@@ -284,16 +390,6 @@ class DiskEmitter(AbstractEmitter):
             raise BadTypeError(f"two_sided must be True or False, got {two_sided!r}")
         self.two_sided = bool(two_sided)
 
-    def reference_point(self) -> Array:
-        return self.center
-
-    def point_light(self, points, normals):
-        """Distance to the centre and `I * g * max(0, n.l)`, `g = max(0, m.(p - c)/d)`.
-
-        Two-sided disks use `g = |m.(p - c)| / d`. The weight is 0 at `d = 0`.
-        """
-        return flat_point_light(self, points, normals, self.two_sided)
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "kind": self.kind,
@@ -304,8 +400,23 @@ class DiskEmitter(AbstractEmitter):
             "two_sided": self.two_sided,
         }
 
+    def surface_distance(self, pts):
+        """Distance to the nearest point of the (closed) disk."""
+        p = _f64(pts)
+        m = _f64(self.normal)
+        m = m / np.linalg.norm(m)
+        rel = p - _f64(self.center)
+        z = rel @ m
+        s = np.linalg.norm(rel - z[:, None] * m, axis=1)
+        return np.hypot(z, np.maximum(s - float(np.asarray(self.radius)), 0.0))
 
-class CapsuleEmitter(AbstractEmitter):
+    def extent(self):
+        return float(np.abs(_f64(self.center)).max()) + float(np.asarray(self.radius))
+
+    light_frame = _no_frame
+
+
+class CapsuleEmitter(AbstractSegmentEmitter):
     """A Lambertian capsule: the points within `radius` (m) of the segment from `a` to `b` (m).
 
     A cylinder of length `l = |b - a|` with hemispherical ends: the capsule light of Tomb
@@ -325,6 +436,7 @@ class CapsuleEmitter(AbstractEmitter):
     radius: Float[Array, ""]
     intensity: Float[Array, ""]
     kind: ClassVar[str] = "capsule"
+    frame_input_names: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, a: ArrayLike, b: ArrayLike, radius: ArrayLike, intensity: ArrayLike = 1.0):
         self.a = _check_real("a", a, (3,))
@@ -332,22 +444,8 @@ class CapsuleEmitter(AbstractEmitter):
         self.radius = _check_radius("radius", radius)
         self.intensity = _check_positive("intensity", intensity)
 
-    @property
-    def length(self) -> Array:
-        """The segment's length `|b - a|` (m)."""
-        return _safe_norm(self.b - self.a)
-
     def reference_point(self) -> Array:
         return 0.5 * (self.a + self.b)
-
-    def closest_point(self, points: Float[ArrayLike, "*b 3"]) -> Float[Array, "*b 3"]:
-        """The point of the segment closest to each of `points`."""
-        p = jnp.asarray(points)
-        a = _bcast(self.a, p)
-        ab = _bcast(self.b, p) - a
-        den = _dot(ab, ab)
-        t = jnp.clip(_dot(p - a, ab) / jnp.where(den > 0, den, 1), 0, 1)
-        return a + t[..., None] * ab
 
     def point_light(self, points, normals):
         """Distance to the closest point `q` of the segment and `I * g * max(0, n.l)`.
@@ -377,6 +475,19 @@ class CapsuleEmitter(AbstractEmitter):
             "intensity": float(self.intensity),
         }
 
+    def inside(self, pts, margin=1e-9):
+        return self.core_distance(pts) <= float(self.radius) * (1 + margin)
+
+    def surface_distance(self, pts):
+        """Distance to the segment minus r, 0 inside."""
+        return np.maximum(self.core_distance(_f64(pts)) - float(np.asarray(self.radius)), 0.0)
+
+    def projected_factor(self, l, ab, sin_psi, r):
+        """`1 + 2 |b - a| sin(psi) / (pi r)`, as `point_light`'s."""
+        return 1 + 2 * sin_psi / (math.pi * r)
+
+    light_frame = _no_frame
+
 
 def _kinds() -> dict[str, tuple[type[AbstractEmitter], tuple[str, ...], tuple[str, ...]]]:
     """Every emitter class by its `kind`, with its constructor's required and optional keys."""
@@ -385,6 +496,8 @@ def _kinds() -> dict[str, tuple[type[AbstractEmitter], tuple[str, ...], tuple[st
     while stack:
         cls = stack.pop(0)
         stack.extend(cls.__subclasses__())
+        if inspect.isabstract(cls):  # the abstract bases of the shapes
+            continue
         params = list(inspect.signature(cls.__init__).parameters.values())[1:]
         required = tuple(p.name for p in params if p.default is inspect.Parameter.empty)
         optional = tuple(p.name for p in params if p.default is not inspect.Parameter.empty)

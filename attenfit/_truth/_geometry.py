@@ -8,25 +8,13 @@ turns a model's `E / I` into irradiance at those receivers.
 
 from __future__ import annotations
 
-import math
-
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
-from .._curves import AREA_INPUTS, RECT_INPUTS, TUBE_INPUTS, AreaInputs, AreaModel
+from .._curves import AREA_INPUTS, AreaInputs, AreaModel
 from .._errors import BadTypeError, BadValueError
-from ._emitters import (
-    AbstractEmitter,
-    CapsuleEmitter,
-    DiskEmitter,
-    SphereEmitter,
-    _bcast,
-    _dot,
-    _receivers,
-    _safe_norm,
-)
-from ._rect import RectEmitter
-from ._tube import TubeEmitter
+from ._emitter_checks import _bcast, _dot, _receivers, _safe_norm
+from ._emitters import AbstractEmitter, _kinds
 
 __all__ = ["area_inputs", "area_irradiance", "frame_inputs", "model_inputs"]
 
@@ -50,39 +38,17 @@ def area_inputs(
     if not isinstance(emitter, AbstractEmitter):
         raise BadTypeError(f"emitter must be an attenfit emitter, got {type(emitter).__name__}")
     p, n = _receivers(points, normals)
-    dt = p.dtype
-    target = (
-        emitter.closest_point(p)
-        if isinstance(emitter, CapsuleEmitter | TubeEmitter)
-        else _bcast(emitter.reference_point(), p)
-    )
-    dv = target - p
+    dv = emitter.closest_point(p) - p
     d = _safe_norm(dv)
     dsafe = jnp.where(d > 0, d, 1)
     cos_r = _dot(n, dv) / dsafe
-    r = jnp.broadcast_to(jnp.asarray(emitter.radius).astype(dt), d.shape)
-    one = jnp.ones_like(d)
-    if isinstance(emitter, DiskEmitter | RectEmitter):  # a rectangle: a one-sided disk
-        m = _bcast(emitter.normal, p)
-        cos_e = -_dot(m, dv) / dsafe
-        cos_n = -_dot(n, m)
-        if getattr(emitter, "two_sided", False):
-            flip = jnp.where(cos_e < 0, -one, one)
-            cos_e, cos_n = cos_e * flip, cos_n * flip
-        return AreaInputs(d, cos_r, cos_e, r, cos_n, jnp.maximum(cos_e, 0))
-    if isinstance(emitter, SphereEmitter):
-        return AreaInputs(d, cos_r, one, r, cos_r, one)
-    ab = _bcast(emitter.b, p) - _bcast(emitter.a, p)
-    sin_psi = _safe_norm(jnp.cross(dv / dsafe[..., None], ab))  # |b - a| sin(psi)
-    g = 1 + 2 * sin_psi / (math.pi * r)
-    if isinstance(emitter, TubeEmitter):  # its side (and caps): `TubeEmitter.point_light`'s g
-        cos_psi = jnp.abs(_dot(dv / dsafe[..., None], ab)) / _safe_norm(ab)
-        g = 2 * sin_psi / (math.pi * r) + (cos_psi if emitter.caps else 0 * cos_psi)
-    return AreaInputs(d, cos_r, one, r, cos_r, g)
+    r = jnp.broadcast_to(jnp.asarray(emitter.radius).astype(p.dtype), d.shape)
+    cos_e, cos_n, g = emitter.area_factors(p, n, dv, dsafe, cos_r, r)
+    return AreaInputs(d, cos_r, cos_e, r, cos_n, g)
 
 
 def frame_inputs(
-    emitter: RectEmitter | TubeEmitter,
+    emitter: AbstractEmitter,
     points: Float[ArrayLike, "*b 3"],
     normals: Float[ArrayLike, "*b 3"],
 ) -> tuple[Array, ...]:
@@ -95,22 +61,11 @@ def frame_inputs(
     right-handed pair across it (its models are symmetric about the axis).
     """
     p, n = _receivers(points, normals)
-    dt = p.dtype
-    if isinstance(emitter, RectEmitter):
-        c, ex, ez = (v.astype(dt) for v in (emitter.center, emitter.tangent, emitter.normal))
-        sizes = (emitter.width.astype(dt) / 2, emitter.height.astype(dt) / 2)
-    elif isinstance(emitter, TubeEmitter):
-        a, b = emitter.a.astype(dt), emitter.b.astype(dt)
-        c, ab = (a + b) / 2, b - a
-        ex = ab / _safe_norm(ab)
-        trial = jnp.where(jnp.abs(ex[0]) < 0.9, jnp.eye(3, dtype=dt)[0], jnp.eye(3, dtype=dt)[1])
-        ez = jnp.cross(ex, trial)
-        ez = ez / _safe_norm(ez)
-        sizes = (_safe_norm(ab) / 2, emitter.radius.astype(dt))
-    else:
+    if not isinstance(emitter, AbstractEmitter):
         raise BadTypeError(
             f"frame inputs are for a RectEmitter or a TubeEmitter, got {type(emitter).__name__}"
         )
+    c, ex, ez, sizes = emitter.light_frame(p.dtype)  # BadTypeError: a shape without a frame
     rot = jnp.stack([ex, jnp.cross(ez, ex), ez])  # rows: the frame's axes
     q = (p - _bcast(c, p)) @ rot.T
     m = n @ rot.T
@@ -132,12 +87,12 @@ def model_inputs(
     names = cls.input_names
     if names == AREA_INPUTS:
         return area_inputs(emitter, points, normals)
-    want = {RECT_INPUTS: RectEmitter, TUBE_INPUTS: TubeEmitter}.get(names)
-    if want is None:
+    want = [k for k, _, _ in _kinds().values() if k.frame_input_names == names]
+    if not want:
         raise BadValueError(f"area model {cls.name!r} reads inputs {names} no light provides")
-    if not isinstance(emitter, want):
+    if type(emitter).frame_input_names != names:
         raise BadTypeError(
-            f"area model {cls.name!r} is written for a {want.__name__}, got "
+            f"area model {cls.name!r} is written for a {want[0].__name__}, got "
             f"{type(emitter).__name__}"
         )
     return frame_inputs(emitter, points, normals)

@@ -38,13 +38,8 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError
 from ._capsule import capsule_frame, horizon_crossings, stadium_interval
-from ._emitters import (
-    AbstractEmitter,
-    CapsuleEmitter,
-    DiskEmitter,
-    SphereEmitter,
-    _receivers,
-)
+from ._emitter_checks import _receivers
+from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter
 
 __all__ = ["irradiance"]
 

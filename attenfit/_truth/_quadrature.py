@@ -43,7 +43,8 @@ import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError
-from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter, _receivers
+from ._emitter_checks import _receivers
+from ._emitters import AbstractEmitter, CapsuleEmitter, DiskEmitter, SphereEmitter
 
 _PI = math.pi
 

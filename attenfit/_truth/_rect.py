@@ -31,17 +31,10 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._curves import RECT_INPUTS
 from .._errors import BadValueError
-from ._emitters import (
-    AbstractEmitter,
-    _check_positive,
-    _check_real,
-    _dot,
-    _is_traced,
-    _safe_norm,
-    _unit,
-    flat_point_light,
-)
+from ._emitter_checks import _check_positive, _check_real, _dot, _is_traced, _safe_norm, _unit
+from ._emitters import AbstractFlatEmitter
 from ._irradiance import _one_minus_atan_ratio
 
 __all__ = ["RectEmitter", "rect_irradiance_one"]
@@ -50,7 +43,7 @@ __all__ = ["RectEmitter", "rect_irradiance_one"]
 _FAR = 16.0
 
 
-class RectEmitter(AbstractEmitter):
+class RectEmitter(AbstractFlatEmitter):
     """A one-sided Lambertian rectangle: centre `center` (m), unit `normal`, unit `tangent`
     along its `width` (m), and `height` (m) along `normal x tangent`.
 
@@ -68,6 +61,8 @@ class RectEmitter(AbstractEmitter):
     radius: Float[Array, ""]
     intensity: Float[Array, ""]
     kind: ClassVar[str] = "rect"
+    frame_input_names: ClassVar[tuple[str, ...]] = RECT_INPUTS
+    two_sided: ClassVar[bool] = False
 
     def __init__(
         self,
@@ -103,15 +98,24 @@ class RectEmitter(AbstractEmitter):
             self.tangent, self.bitangent, self.width / 2, self.height / 2
         )
 
-    def reference_point(self) -> Array:
-        return self.center
-
     def exact_kernel(self, dtype: Any) -> Any:
         return rect_kernel(self, dtype)
 
-    def point_light(self, points, normals):
-        """Distance to the centre and `I * max(0, cos_e) * max(0, n.l)` (as a one-sided disk)."""
-        return flat_point_light(self, points, normals)
+    def surface_distance(self, pts):
+        """Distance to the nearest point of the (closed) rectangle."""
+        rel = np.asarray(pts, dtype=np.float64) - np.asarray(self.center, dtype=np.float64)
+        z = rel @ np.asarray(self.normal, dtype=np.float64)
+        s = np.abs(rel @ np.asarray(self.tangent, dtype=np.float64)) - float(self.width) / 2
+        t = np.abs(rel @ np.asarray(self.bitangent, dtype=np.float64)) - float(self.height) / 2
+        return np.hypot(z, np.hypot(np.maximum(s, 0.0), np.maximum(t, 0.0)))
+
+    def extent(self):
+        return float(np.abs(np.asarray(self.corners(), dtype=np.float64)).max())
+
+    def light_frame(self, dtype):
+        """Its centre, x its tangent (width), z its normal; sizes: half width, half height."""
+        c, ex, ez = (v.astype(dtype) for v in (self.center, self.tangent, self.normal))
+        return c, ex, ez, (self.width.astype(dtype) / 2, self.height.astype(dtype) / 2)
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -67,9 +67,9 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
+from .._curves import TUBE_INPUTS
 from .._errors import BadTypeError, BadValueError
-from ._emitters import (
-    AbstractEmitter,
+from ._emitter_checks import (
     _bcast,
     _check_positive,
     _check_radius,
@@ -79,6 +79,7 @@ from ._emitters import (
     _receivers,
     _safe_norm,
 )
+from ._emitters import AbstractSegmentEmitter
 from ._irradiance import _disk_clipped, _disk_unclipped, _gauss_legendre, _safe_sqrt
 
 __all__ = ["TubeEmitter", "tube_irradiance_one"]
@@ -92,7 +93,7 @@ _PSI_NODES, _Z_NODES, _ARC_NODES = 16, 8, 32
 _ARC_B_MIN = 0.1
 
 
-class TubeEmitter(AbstractEmitter):
+class TubeEmitter(AbstractSegmentEmitter):
     """A Lambertian tube: the side of the cylinder of radius `radius` (m) around the segment
     `a -> b` (m), and its two end disks when `caps`.
 
@@ -111,6 +112,7 @@ class TubeEmitter(AbstractEmitter):
     intensity: Float[Array, ""]
     caps: bool = eqx.field(static=True)
     kind: ClassVar[str] = "tube"
+    frame_input_names: ClassVar[tuple[str, ...]] = TUBE_INPUTS
 
     def __init__(
         self,
@@ -134,24 +136,11 @@ class TubeEmitter(AbstractEmitter):
         self.caps = bool(caps)
 
     @property
-    def length(self) -> Array:
-        """The tube's length `|b - a|` (m)."""
-        return _safe_norm(self.b - self.a)
-
-    @property
     def center(self) -> Array:
         return 0.5 * (self.a + self.b)
 
     def reference_point(self) -> Array:
         return self.center
-
-    def closest_point(self, points: Float[ArrayLike, "*b 3"]) -> Float[Array, "*b 3"]:
-        """The point of the axis segment closest to each of `points`."""
-        p = jnp.asarray(points)
-        a = _bcast(self.a, p)
-        ab = _bcast(self.b, p) - a
-        t = jnp.clip(_dot(p - a, ab) / _dot(ab, ab), 0, 1)
-        return a + t[..., None] * ab
 
     def exact_kernel(self, dtype: Any) -> Any:
         return tube_kernel(self, dtype)
@@ -180,6 +169,36 @@ class TubeEmitter(AbstractEmitter):
             "intensity": float(self.intensity),
             "caps": self.caps,
         }
+
+    def inside(self, pts, margin=1e-9):
+        return self.surface_distance(pts) <= float(self.radius) * margin
+
+    def surface_distance(self, pts):
+        """Distance to the solid cylinder (its caps included), 0 inside."""
+        p = np.asarray(pts, dtype=np.float64)
+        a = np.asarray(self.a, dtype=np.float64)
+        ab = np.asarray(self.b, dtype=np.float64) - a
+        ell = float(np.linalg.norm(ab))
+        z = (p - a) @ (ab / ell)
+        rho = np.linalg.norm((p - a) - z[:, None] * (ab / ell), axis=1)
+        dz = np.maximum(np.maximum(-z, z - ell), 0.0)
+        return np.hypot(np.maximum(rho - float(np.asarray(self.radius)), 0.0), dz)
+
+    def projected_factor(self, l, ab, sin_psi, r):
+        """`2 |b - a| sin(psi) / (pi r) + caps |cos(psi)|`, as `point_light`'s."""
+        cos_psi = jnp.abs(_dot(l, ab)) / _safe_norm(ab)
+        return 2 * sin_psi / (_PI * r) + (cos_psi if self.caps else 0 * cos_psi)
+
+    def light_frame(self, dtype):
+        """Its centre, x along `a -> b`, z any unit vector across it (its models are
+        symmetric about the axis); sizes: half length, radius."""
+        a, b = self.a.astype(dtype), self.b.astype(dtype)
+        c, ab = (a + b) / 2, b - a
+        ex = ab / _safe_norm(ab)
+        eye = jnp.eye(3, dtype=dtype)
+        ez = jnp.cross(ex, jnp.where(jnp.abs(ex[0]) < 0.9, eye[0], eye[1]))
+        ez = ez / _safe_norm(ez)
+        return c, ex, ez, (_safe_norm(ab) / 2, self.radius.astype(dtype))
 
 
 # ----------------------------------------------------------------------------- the frame
