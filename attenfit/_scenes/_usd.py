@@ -217,11 +217,21 @@ def _not_modelled(prim, type_name: str, when: UsdTime, where: str) -> str | None
     emission in ways it does not: `inputs:shaping:focus` ("Implemented as an off-axis
     cosine power exponent. TODO: clarify semantics", usdLux/schema.usda: no formula to
     model) when not 0, and `inputs:shaping:ies:file` (a photometric profile in another
-    file, which attenfit never reads) when it names a file."""
+    file, which attenfit never reads) when it names a file. A RectLight's
+    `inputs:texture:file` ("A color texture to use on the rectangle", usdLux/schema.usda)
+    naming a file makes its emission vary over the rectangle, which is not modelled either."""
     if type_name in _UNSUPPORTED:
         return "not modelled (attenfit takes sphere, disk, spot, rect and cylinder lights)"
     from pxr import UsdLux
 
+    if type_name == "RectLight":
+        tex = when.get(light_input(prim, UsdLux.RectLight(prim).GetTextureFileAttr(), []))
+        path = getattr(tex, "path", tex)
+        if isinstance(path, str) and path:
+            return (
+                f"texture:file {path!r}: a textured rect light's emission varies over the "
+                "rectangle, which is not modelled (attenfit reads no other file)"
+            )
     if not prim.HasAPI(UsdLux.ShapingAPI):
         return None
     shaping = UsdLux.ShapingAPI(prim)
