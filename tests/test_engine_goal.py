@@ -1,5 +1,6 @@
 """The goal of issue 29, checked: for every engine and every light of the example scenes
-(examples/scenes/*.toml, and the Blender room as USD and as glTF), the error the engine
+(examples/scenes/*.toml, and the Blender room as USD and as glTF) and of the public files
+nobody here wrote (tests/data/public, LICENSES.md there), the error the engine
 renders with attenfit's properties, recomputed here through the engine's code transcribed
 in tests/_engine_code.py (not through attenfit's engine witness), is the error the answer
 claims within 5% relative; and an answer within its tolerance really is.
@@ -21,6 +22,24 @@ EXAMPLES = Path(__file__).resolve().parent.parent / "examples" / "scenes"
 BLENDER = EXAMPLES / "blender"
 TOMLS = sorted(EXAMPLES.glob("*.toml"))
 SAMPLES = 384  # receivers per light of the Blender room (a small sample keeps it quick)
+PUBLIC = Path(__file__).resolve().parent / "data" / "public"
+#: the public files attenfit answers (the others are refused: tests/test_public_scenes.py),
+#: with the options they need (a radius for glTF and treatAsPoint lights)
+PUBLIC_FILES = [
+    ("maya-usd-lights/LightsTest.answerable.usda", {"radius": 0.05}),
+    ("openusd-torch/torch.usda", {}),
+    ("openusd-light-visibility/testVarying.usda", {}),
+    ("usd-wg-environment/Environment.usda", {}),
+    ("maya-usd-rfm-lights/RfMLightsTest.usda", {}),
+    ("openusd-inherited-primvars/inherited_primvars.usda", {}),
+    ("openusd-preview-surface-normal-map/testPreviewSurfaceNormalMap.usda", {}),
+    ("openusd-physics-box-on-quad/usdPhysicsBoxOnQuad.usda", {}),
+    ("openusd-premultiply-alpha/testPremultiplyAlphaUdims.usda", {}),
+    ("usd-wg-shader-ball/environment.usda", {}),
+    ("atteneder-lights-point/LightsPoint.gltf", {"radius": 0.05}),
+    ("atteneder-lights-spot/LightsSpot.gltf", {"radius": 0.05}),
+]
+PUBLIC_SAMPLES = 128  # receivers per light of a public file
 
 
 def _answers(engine: str):
@@ -32,15 +51,40 @@ def _answers(engine: str):
         yield name, ans
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("engine", sorted(RENDER))
-def test_engine_renders_what_the_answer_claims(engine):
-    for scene_name, ans in _answers(engine):
+def _public_answers(engine: str):
+    for name, options in PUBLIC_FILES:
+        ans = answer_file(
+            PUBLIC / name, engine=engine, samples=PUBLIC_SAMPLES, notice=lambda m: None, **options
+        )
+        yield name, ans
+
+
+def _check_claims(engine: str, answers) -> int:
+    """Every engine answer's claim is what the engine renders (within 5% relative), and a
+    pass is within the tolerance; returns the number of lights checked."""
+    n = 0
+    for scene_name, ans in answers:
         for c, rendered in engine_rendered_errors(ans.imported.scene, ans.choices, engine):
             where = f"{scene_name}: {c.name}: {engine}"
             assert c.engine_error == pytest.approx(rendered, rel=0.05), where
             if c.status == "pass":
                 assert rendered <= 1.05 * ans.imported.scene.tolerance, where
+            n += 1
+    return n
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", sorted(RENDER))
+def test_engine_renders_what_the_answer_claims(engine):
+    assert _check_claims(engine, _answers(engine)) > 0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("engine", sorted(RENDER))
+def test_engine_renders_what_the_answer_claims_on_public_files(engine):
+    """The same goal over every light attenfit answers in the public files (27 lights in
+    12 files: sphere, spot and rect lights; centimetre stages; glTF candela)."""
+    assert _check_claims(engine, _public_answers(engine)) == 27
 
 
 @pytest.mark.slow

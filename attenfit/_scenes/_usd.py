@@ -60,7 +60,15 @@ from .._errors import AttenfitError, BadTypeError, BadValueError, DataFileError
 from ._sample import Mesh
 from ._types import SceneLight
 from ._usd_area import AREA_TYPES, area_light
-from ._usd_attrs import UsdTime, check_time, light_input, prim_errors, show, world_matrix
+from ._usd_attrs import (
+    UsdTime,
+    check_time,
+    light_input,
+    prim_errors,
+    shaped,
+    show,
+    world_matrix,
+)
 from ._usd_layers import MAX_PRIMS, USD_SUFFIXES, UsdLayers, pxr_error, usd_diagnostics, usd_layers
 from ._usd_mesh import check_mesh_memory, read_mesh
 
@@ -217,12 +225,22 @@ def _not_modelled(prim, type_name: str, when: UsdTime, where: str) -> str | None
     emission in ways it does not: `inputs:shaping:focus` ("Implemented as an off-axis
     cosine power exponent. TODO: clarify semantics", usdLux/schema.usda: no formula to
     model) when not 0, and `inputs:shaping:ies:file` (a photometric profile in another
-    file, which attenfit never reads) when it names a file."""
+    file, which attenfit never reads) when it names a file. A RectLight's
+    `inputs:texture:file` ("A color texture to use on the rectangle", usdLux/schema.usda)
+    naming a file makes its emission vary over the rectangle, which is not modelled either."""
     if type_name in _UNSUPPORTED:
         return "not modelled (attenfit takes sphere, disk, spot, rect and cylinder lights)"
     from pxr import UsdLux
 
-    if not prim.HasAPI(UsdLux.ShapingAPI):
+    if type_name == "RectLight":
+        tex = when.get(light_input(prim, UsdLux.RectLight(prim).GetTextureFileAttr(), []))
+        path = getattr(tex, "path", tex)
+        if isinstance(path, str) and path:
+            return (
+                f"texture:file {path!r}: a textured rect light's emission varies over the "
+                "rectangle, which is not modelled (attenfit reads no other file)"
+            )
+    if not shaped(prim):
         return None
     shaping = UsdLux.ShapingAPI(prim)
     olds: list[str] = []
@@ -383,13 +401,17 @@ def _intensity(prim, type_name, radius, where, when, olds) -> float:
 
 
 def _cone(prim, where, when, olds) -> tuple[float, float] | None:
-    """(umbra, penumbra) in degrees of a ShapingAPI cone, or None for no cone."""
+    """(umbra, penumbra) in degrees of a ShapingAPI cone, or None for no cone. Without the
+    API applied (`shaped`), an unauthored angle is no cone (the schema's 90 applies with
+    the API only)."""
     from pxr import UsdLux
 
-    if not prim.HasAPI(UsdLux.ShapingAPI):
+    if not shaped(prim):
         return None
     shaping = UsdLux.ShapingAPI(prim)
     a_attr = light_input(prim, shaping.GetShapingConeAngleAttr(), olds)
+    if not prim.HasAPI(UsdLux.ShapingAPI) and not (a_attr and a_attr.HasAuthoredValue()):
+        return None
     angle = _number(a_attr, 90.0, where, when)
     softness = _number(light_input(prim, shaping.GetShapingConeSoftnessAttr(), olds), 0.0, where, when)  # fmt: skip
     if angle >= 180:

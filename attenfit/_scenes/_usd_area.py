@@ -37,6 +37,7 @@ import numpy as np
 
 from .._errors import AttenfitError, BadValueError
 from ._types import SceneLight
+from ._usd_attrs import shaped
 
 __all__ = ["AREA_TYPES", "area_light"]
 
@@ -91,7 +92,7 @@ def _check_sizes(where: str, sizes: dict[str, float]) -> None:
 
 
 def _check_shaping(prim, UsdLux, number: Callable, where: str) -> None:
-    if not prim.HasAPI(UsdLux.ShapingAPI):
+    if not shaped(prim):  # the API applied, or a shaping input authored without it
         return
     shaping = UsdLux.ShapingAPI(prim)
     angle = number(shaping.GetShapingConeAngleAttr(), 90.0, where)

@@ -111,6 +111,21 @@ def light_input(prim, attr, old_names: list[str]):
     return attr
 
 
+def shaped(prim) -> bool:
+    """Whether the light `prim` is shaped: the ShapingAPI applied, or a `shaping:` input
+    authored without it (maya-usd writes a spot's cone so). usdImaging reads a light's
+    authored inputs whatever schemas are applied (`UsdImagingPrimAdapter::GetLightParamValue`
+    falls back to `LookupLightParamAttribute`, pxr/usdImaging/usdImaging/primAdapter.cpp)."""
+    from pxr import UsdLux
+
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        return True
+    return any(
+        a.GetName().startswith(("inputs:shaping:", "shaping:")) and a.HasAuthoredValue()
+        for a in prim.GetAttributes()
+    )
+
+
 def _local(prim, when: UsdTime):
     """The local transform of `prim` (a Gf.Matrix4d, row vectors), each xformOp read at its
     own time (`UsdTime.code`), composed as usd-core composes them
