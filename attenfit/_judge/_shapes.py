@@ -58,6 +58,11 @@ class ShapeConfig:
     light: str  # "rect" | "tube"
     ratio: float  # h / w (a panel's floor) or D / l (a tube's wall)
 
+    @property
+    def unit(self) -> str:
+        """The size lengths are given in: a panel's width `w`, a tube's length `l`."""
+        return "w" if self.light == "rect" else "l"
+
     def emitter(self) -> RectEmitter | TubeEmitter:
         if self.light == "rect":
             return RectEmitter([0.0, 0.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0], 1.0, 1.0)
