@@ -186,8 +186,14 @@ class ShapeVerifier(Verifier):
 
 
 def _cell(c: Candidate, w: Found) -> dict[str, Any]:
+    """A ceiling cell: the model (`values`: its parameters, a point light's its family's),
+    its worst case, where, typical error and cost."""
+    model = c.build() if c.build is not None else None
+    inner = model.family if isinstance(model, PointLight) else model
+    values = {} if inner is None else {k: np.asarray(v).tolist() for k, v in inner.params().items()}
     return {"name": c.model, "mode": c.mode, "kind": c.kind, "params": c.params,
-            "error": w.error, "where": w.where(), "typical": w.typical, "cost": c.cost}  # fmt: skip
+            "values": values, "error": w.error, "where": w.where(), "typical": w.typical,
+            "cost": c.cost}  # fmt: skip
 
 
 def _ceiling_row(config: ShapeConfig, curves, areas, check: ShapeVerifier) -> dict[str, Any]:
