@@ -120,8 +120,7 @@ def build_report(
     Args:
         families: family names or classes.
         emitters: emitters or their names in `default_emitters()` ("sphere", "disk"); a mapping
-            gives them names. Default: the sphere and the disk. The names "rect" and "tube"
-            (also as "rect,tube") are taken as `shapes`; naming only those keeps the default.
+            gives them names. Default: the sphere and the disk. "rect", "tube" go to `shapes`.
         datasets: `attenfit.Dataset`s (e.g. Mitsuba renders), or a mapping name -> dataset;
             each adds a configuration (see the module docstring).
         fitted: also fit every family (the "fitted" mode); False gives "published" only.
@@ -132,18 +131,14 @@ def build_report(
             a report that will be written (`Report.write` then uses them).
         ceiling: also compute the section "what no distance curve can fix" (`_ceiling`:
             the point-light model's ceiling against the area models; minutes).
-        shapes: also judge these lights on the judge's planes ("rect": floors under a
-            panel, "tube": walls beside a tube; `_area_shapes`): their ceiling (the section
-            "Rectangle and tube lights") and their decision rows. A minute or more each.
-        shape_grid: grid points per side of their worst-case search (default 33).
+        shapes, shape_grid: also "rect", "tube" (`shape_rows`; its search grid's side).
         progress: called with one line per stage (the CLI prints it on stderr).
     """
     import jax
 
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
-    emitters, named = split_shapes(emitters)
-    shapes = _check_shapes((*named, *([shapes] if isinstance(shapes, str) else shapes)), shape_grid)
+    emitters, shapes = _split(emitters, shapes, shape_grid)
     classes = resolve_families(families)
     ds_items = _dataset_items(datasets)
     _check_size(emitters, ds_items, sweep_n, plane_px, cost)
@@ -179,20 +174,37 @@ def build_report(
             measure=cost is True,
         )
         timings["cost"] = time.perf_counter() - t
-    if shapes:
-        t = time.perf_counter()
-        shape_data = _shapes(classes, shapes, int(sweep_n), fitted, int(shape_grid), say)
-        timings["shapes"] = time.perf_counter() - t
-    meta = _meta(t_start, timings, sweep_n, plane_px)
-    if shapes:
-        meta["shapes"] = shape_data
+    extra = _shape_section(classes, shapes, int(sweep_n), fitted, int(shape_grid), say, timings)
+    meta = _meta(t_start, timings, sweep_n, plane_px) | extra
     if ceiling:
-        from ._ceiling import ceiling_data
-
-        say("what no distance curve can fix: the ceiling and the area models")
-        meta["ceiling"] = ceiling_data()
+        meta["ceiling"] = _ceiling_section(say)
     return Report([c.name for c in classes], configs, results, findings, costs, meta, models,
                   values, prerendered)  # fmt: skip
+
+
+def _shape_section(classes, shapes, sweep_n: int, fitted: bool, grid: int, say, timings) -> dict:
+    """`{"shapes": ...}` (`_shapes`, timed) where shape lights are named, else `{}`."""
+    if not shapes:
+        return {}
+    t = time.perf_counter()
+    out = {"shapes": _shapes(classes, shapes, sweep_n, fitted, grid, say)}
+    timings["shapes"] = time.perf_counter() - t
+    return out
+
+
+def _ceiling_section(say) -> dict[str, Any]:
+    """The numbers of the section "what no distance curve can fix" (`_ceiling`)."""
+    from ._ceiling import ceiling_data
+
+    say("what no distance curve can fix: the ceiling and the area models")
+    return ceiling_data()
+
+
+def _split(emitters: Any, shapes: Any, grid: Any) -> tuple[Any, tuple[str, ...]]:
+    """(the emitters, the shape lights): those named among the emitters and in `shapes`."""
+    emitters, named = split_shapes(emitters)
+    more = [shapes] if isinstance(shapes, str) else list(shapes)
+    return emitters, _check_shapes([*named, *more], grid)
 
 
 def _check_shapes(shapes: Sequence[Any], grid: Any) -> tuple[str, ...]:
