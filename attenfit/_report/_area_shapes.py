@@ -17,7 +17,8 @@ The candidates:
 * every area model written for the light (`AreaModel.light`), as shipped.
 
 The ceiling (`shapes_data`, `shapes_markdown`): per configuration the best f(d) (the
-smallest worst case among the `_verify.CLOSEST_SEARCHED` curves closest on the grid) and
+closest by `attenfit._judge.rank` of the `_verify.CLOSEST_SEARCHED` curves closest on the
+grid, by their worst cases) and
 every area model, with its worst case, where, typical error and compiled cost. The
 decision: per configuration and tolerance, `_decide.decide_cell`, ranked by
 `attenfit._judge.rank` as every other row, the worst cases from `ShapeVerifier`.
@@ -33,7 +34,15 @@ from typing import Any
 import numpy as np
 
 from .._curves import PointLight, get_area_model, list_area_models
-from .._judge import SHAPE_CONFIGS, ShapeConfig, shape_config, shape_grid_errors, shape_worst_case
+from .._judge import (
+    SHAPE_CONFIGS,
+    Contender,
+    ShapeConfig,
+    rank,
+    shape_config,
+    shape_grid_errors,
+    shape_worst_case,
+)
 from .._truth import facing_sweep
 from ._area_candidates import _cost as area_cost
 from ._candidates import Candidate
@@ -41,7 +50,7 @@ from ._configs import Config, Sweep
 from ._decide import TOLERANCES, TYPICAL_HEADER, _absolute, decide_cell, params_in_r
 from ._markdown import fmt_num, fmt_pct, md_row
 from ._published import range_of
-from ._verify import Found, Verifier
+from ._verify import CLOSEST_SEARCHED, Found, Verifier
 
 __all__ = [
     "SHAPE_GRID",
@@ -199,7 +208,12 @@ def _cell(c: Candidate, w: Found) -> dict[str, Any]:
 def _ceiling_row(config: ShapeConfig, curves, areas, check: ShapeVerifier) -> dict[str, Any]:
     judged = sorted((c for c in curves if c.errors.get(config.key) is not None),
                     key=lambda c: c.errors[config.key])  # fmt: skip
-    best = check.closest(judged, config.key)
+    searched = [(c, check.worst(c, config.key)) for c in judged[:CLOSEST_SEARCHED]]
+    closest = rank(
+        (Contender(c.label, w.error, c.cost, c.n_params, item=(c, w)) for c, w in searched if w),
+        0.0,
+    ).closest  # the one ranking: error to 3 digits, then cost, parameters, name
+    best = None if closest is None else closest.item
     models = [(c, check.worst(c, config.key)) for c in areas]
     return {
         "config": config.key,
@@ -268,8 +282,8 @@ def shapes_markdown(data: Mapping[str, Any]) -> str:
         "panel at the origin facing -z, the tube along x); typical: the 95th percentile "
         "over the grid. The best f(d): every family through the point-light model, as "
         "published for the light's radius r (a panel's equal-area disk's, the tube's) and "
-        "fitted to its facing sweep, the smallest worst case of the "
-        "three closest on the grid. Cost: compiled (SPIR-V instructions where the "
+        f"fitted to its facing sweep: of the {CLOSEST_SEARCHED} closest on the grid, the "
+        "smallest worst case (equal to 3 digits: the cheaper). Cost: compiled (SPIR-V instructions where the "
         "compilers are installed)."
     )
     return "\n".join(lines) + "\n\n" + note + "\n"
