@@ -27,8 +27,8 @@ import numpy as np
 import pytest
 
 import attenfit as af
-from attenfit.cli import main
 from attenfit._curves import PointLight, get_area_model, get_family, list_area_models
+from attenfit.cli import main
 
 FAMILIES = ["inverse_square", "yuksel"]
 #: (key, light, distance over size) of each plane, as docs/area.md lists them.
