@@ -54,6 +54,14 @@ class Inputs:
         return self._report
 
     @functools.cached_property
+    def shapes(self) -> dict[str, Any]:
+        """The rectangle's and the tube's rows (`build_report(shapes=...)`'s, alone)."""
+        from attenfit._report import shape_rows
+
+        say = lambda s: print(f"docs: shapes: {s}", flush=True)  # noqa: E731
+        return shape_rows(progress=say)
+
+    @functools.cached_property
     def recommendations(self) -> dict[str, Any]:
         if self._recommendations is None:
             self._recommendations = {
@@ -101,6 +109,16 @@ def area_worst(inputs: Inputs) -> str:
     from attenfit._report._area_worst import area_worst_markdown
 
     return area_worst_markdown(inputs.report).rstrip()
+
+
+def area_shapes(inputs: Inputs) -> str:
+    """The rectangle's and the tube's ceiling and decision rows (docs/area.md), as
+    `attenfit report --emitters rect,tube` writes them."""
+    from attenfit._report._area_shapes import shapes_markdown
+    from attenfit._report._decide import decision_markdown
+
+    data = inputs.shapes
+    return (shapes_markdown(data) + "\n" + decision_markdown(data["decisions"])).rstrip()
 
 
 def report_findings(inputs: Inputs) -> str:
@@ -344,6 +362,7 @@ SECTIONS = {
     "report-summary": Section("README.md", report_summary),
     "report-findings": Section("docs/report.md", report_findings),
     "area-worst": Section("docs/area.md", area_worst),
+    "area-shapes": Section("docs/area.md", area_shapes),
     "published-rules": Section("docs/report.md", published_rules),
     "families-table": Section("docs/families.md", families_table),
     "scene-keys": Section("docs/scenes.md", scene_keys),

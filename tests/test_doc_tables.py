@@ -7,6 +7,8 @@ regenerates the generated ones and fails when a page is stale):
 * the decision table, in README.md (report-decision) and docs/report.md
   (report-decision-doc): per light, band and named model, its worst case and typical (p95);
 * docs/area.md's area models' worst cases (area-worst), per model, light and band;
+* docs/area.md's rectangle and tube numbers: the generated ceiling and decision rows
+  (area-shapes) and the shapes benchmark's table, per model, mode and plane;
 * docs/judging.md's re-judged table ("worst found", "typical (p95)");
 * the summary (README.md) and the windows table (docs/report.md): a windowed family's
   largest error on the sphere's facing sweep within half its range, as published.
@@ -93,6 +95,45 @@ def _area_worst(quoted: dict) -> None:
         quoted[("typical", *key)].append(("docs/area.md", _pct(row[col["typical (p95)"]])))
 
 
+def _shape_cell(cell: str) -> tuple[str, str] | None:
+    """(model, mode) of a rect/tube table's model cell: "best f(d): `spline` fitted" ->
+    (spline, fitted); "`three_rect` (area model)" -> (three_rect, published); None for a
+    cell naming no single model ("`point_light (1/d^2)`")."""
+    m = re.search(r"`([A-Za-z0-9_]+)`\s*(fitted)?", cell)
+    return None if m is None else (m.group(1), m.group(2) or "published")
+
+
+def _area_shapes(quoted: dict) -> None:
+    """docs/area.md's rect and tube numbers: the generated ceiling and decision rows, and
+    the benchmark's table (`python -m benchmarks shapes`), per model, mode and plane."""
+    text = (ROOT / "docs" / "area.md").read_text(encoding="utf-8")
+    ours = _section("docs/area.md", "area-shapes")
+    tables = [("docs/area.md area-shapes", _rows(ours, "configuration")),
+              ("docs/area.md shapes benchmark", _rows(text.replace(ours, ""), "configuration"))]  # fmt: skip
+    for page, (head, rows) in tables:
+        col = {h: i for i, h in enumerate(head)}
+        for row in rows:
+            named = _shape_cell(row[col["model"]])
+            if named is None:
+                continue
+            key = (*named, row[0])
+            quoted[("worst", *key)].append((page, _pct(row[col["worst case"]])))
+            quoted[("typical", *key)].append((page, _pct(row[col["typical (p95)"]])))
+    head, rows = _rows(ours, "light")
+    col = {h: i for i, h in enumerate(head)}
+    band = ""
+    for row in rows:
+        band = row[1] or band
+        named = _shape_cell(row[col["cheapest model"]])
+        assert named is not None, row
+        quoted[("worst", *named, band)].append(
+            ("docs/area.md decision", _pct(row[col["worst case"]]))
+        )
+        quoted[("typical", *named, band)].append(
+            ("docs/area.md decision", _pct(row[col["typical (p95)"]]))
+        )
+
+
 def _judging(quoted: dict) -> None:
     text = (ROOT / "docs" / "judging.md").read_text(encoding="utf-8")
     head, rows = _rows(text, "light")
@@ -132,6 +173,7 @@ def quoted() -> dict:
     _decision("README.md", "report-decision", out)
     _decision("docs/report.md", "report-decision-doc", out)
     _area_worst(out)
+    _area_shapes(out)
     _judging(out)
     _windows(out)
     return out
@@ -151,6 +193,8 @@ def test_the_pages_share_numbers(quoted):
     assert sum(len(p) >= 3 for p in pages.values()) >= 10
     area = {k for k, p in pages.items() if "docs/area.md" in p and len(p) > 1}
     assert any(k[1] == "clipped_disk" for k in area)
+    shapes = {k for k, p in pages.items() if "docs/area.md area-shapes" in p and len(p) > 1}
+    assert {k[1] for k in shapes} >= {"clipped_rect", "lambert_line"}  # ceiling = benchmark
 
 
 def test_a_disagreement_is_caught():

@@ -27,7 +27,16 @@ def add_parser(sub, parents: list) -> None:
         "--emitters",
         nargs="+",
         metavar="NAME",
-        help="emitters to compare against: sphere, disk (default: both)",
+        help="emitters to compare against: sphere, disk (default: both); rect, tube add "
+        "the rectangle's and the tube's ceiling and decision rows, judged on planes beside "
+        "them (e.g. --emitters rect,tube; a minute or more each)",
+    )
+    p.add_argument(
+        "--shape-grid",
+        type=int,
+        default=33,
+        metavar="N",
+        help="grid points per side of the rect and tube worst-case search (default 33)",
     )
     p.add_argument(
         "--families", nargs="+", metavar="NAME", help="families to compare (default: all)"
@@ -69,9 +78,12 @@ def _run_report(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from .._fit import enable_persistent_cache
-    from .._report import build_report
+    from .._report import build_report, split_shapes
     from .._truth import Dataset
 
+    emitters, shapes = split_shapes(args.emitters)
+    if args.shape_grid < 3:
+        raise BadValueError(f"--shape-grid must be at least 3, got {args.shape_grid}")
     check_output(
         args.out, force=args.force, marks=OWN_MARKS["report"], folder=True
     )  # before any work
@@ -89,10 +101,12 @@ def _run_report(args: argparse.Namespace) -> int:
 
         resolve_families(args.families)
         if min(args.sweep_n, args.plane_px) >= 8:
-            witness = _Witness(resolve_emitters(args.emitters))
+            witness = _Witness(resolve_emitters(emitters))
     rep = build_report(
         families=args.families,
-        emitters=args.emitters,
+        emitters=emitters,
+        shapes=shapes,
+        shape_grid=args.shape_grid,
         datasets=datasets,
         fitted=not args.no_fit,
         sweep_n=args.sweep_n,

@@ -23,6 +23,8 @@ from ._receivers import GAP_BANDS as GAP_BANDS
 from ._shapes import SHAPE_CONFIGS as SHAPE_CONFIGS
 from ._shapes import ShapeConfig as ShapeConfig
 from ._shapes import ShapeWorst as ShapeWorst
+from ._shapes import shape_config as shape_config
+from ._shapes import shape_grid_errors as shape_grid_errors
 from ._shapes import shape_worst_case as shape_worst_case
 from ._worst import WorstCase as WorstCase
 from ._worst import receiver_error as receiver_error

@@ -6,9 +6,11 @@ parameters (`_published`), the result rows (`_evaluate`), the combined fit
 Imports the curves, truth, fitting and shaders stages, and nothing above.
 """
 
+from ._area_shapes import split_shapes as split_shapes
 from ._build import build_report as build_report
 from ._build import resolve_emitters as resolve_emitters
 from ._build import resolve_families as resolve_families
+from ._build import shape_rows as shape_rows
 from ._configs import DEFAULT_RADIUS as DEFAULT_RADIUS
 from ._configs import PLANE_PX as PLANE_PX
 from ._configs import PUBLISHED_CUTOFF as PUBLISHED_CUTOFF

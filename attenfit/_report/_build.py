@@ -24,6 +24,7 @@ from .._errors import BadTypeError, BadValueError, UnknownNameError
 from .._truth import emitter_from_dict
 from .._version import __version__
 from . import _figures
+from ._area_shapes import SHAPE_GRID, SHAPE_LIGHTS, shape_sweep, shapes_data, split_shapes
 from ._configs import (
     PLANE_PX,
     PUBLISHED_CUTOFF,
@@ -76,7 +77,8 @@ def resolve_emitters(emitters: Sequence[Any] | Mapping[str, Any] | None) -> dict
             defaults = defaults or default_emitters()
             if e not in defaults:
                 raise UnknownNameError(
-                    f"unknown emitter {e!r}; the report knows {', '.join(defaults)}"
+                    f"unknown emitter {e!r}; the report knows {', '.join(defaults)} (and "
+                    f"{', '.join(SHAPE_LIGHTS)}, judged on planes beside them)"
                 )
             out[e] = defaults[e]
         else:
@@ -109,6 +111,8 @@ def build_report(
     cost: bool | str = True,
     figures_early: bool = False,
     ceiling: bool = False,
+    shapes: Sequence[str] = (),
+    shape_grid: int = SHAPE_GRID,
     progress: Callable[[str], None] | None = None,
 ) -> Report:
     """Compare `families` (default: every registered one) against `emitters` and `datasets`.
@@ -116,7 +120,7 @@ def build_report(
     Args:
         families: family names or classes.
         emitters: emitters or their names in `default_emitters()` ("sphere", "disk"); a mapping
-            gives them names. Default: the sphere and the disk.
+            gives them names. Default: the sphere and the disk. "rect", "tube" go to `shapes`.
         datasets: `attenfit.Dataset`s (e.g. Mitsuba renders), or a mapping name -> dataset;
             each adds a configuration (see the module docstring).
         fitted: also fit every family (the "fitted" mode); False gives "published" only.
@@ -127,12 +131,14 @@ def build_report(
             a report that will be written (`Report.write` then uses them).
         ceiling: also compute the section "what no distance curve can fix" (`_ceiling`:
             the point-light model's ceiling against the area models; minutes).
+        shapes, shape_grid: also "rect", "tube" (`shape_rows`; its search grid's side).
         progress: called with one line per stage (the CLI prints it on stderr).
     """
     import jax
 
     say = progress or (lambda s: None)
     t_start = time.perf_counter()
+    emitters, shapes = _split(emitters, shapes, shape_grid)
     classes = resolve_families(families)
     ds_items = _dataset_items(datasets)
     _check_size(emitters, ds_items, sweep_n, plane_px, cost)
@@ -168,14 +174,81 @@ def build_report(
             measure=cost is True,
         )
         timings["cost"] = time.perf_counter() - t
-    meta = _meta(t_start, timings, sweep_n, plane_px)
+    extra = _shape_section(classes, shapes, int(sweep_n), fitted, int(shape_grid), say, timings)
+    meta = _meta(t_start, timings, sweep_n, plane_px) | extra
     if ceiling:
-        from ._ceiling import ceiling_data
-
-        say("what no distance curve can fix: the ceiling and the area models")
-        meta["ceiling"] = ceiling_data()
+        meta["ceiling"] = _ceiling_section(say)
     return Report([c.name for c in classes], configs, results, findings, costs, meta, models,
                   values, prerendered)  # fmt: skip
+
+
+def _shape_section(classes, shapes, sweep_n: int, fitted: bool, grid: int, say, timings) -> dict:
+    """`{"shapes": ...}` (`_shapes`, timed) where shape lights are named, else `{}`."""
+    if not shapes:
+        return {}
+    t = time.perf_counter()
+    out = {"shapes": _shapes(classes, shapes, sweep_n, fitted, grid, say)}
+    timings["shapes"] = time.perf_counter() - t
+    return out
+
+
+def _ceiling_section(say) -> dict[str, Any]:
+    """The numbers of the section "what no distance curve can fix" (`_ceiling`)."""
+    from ._ceiling import ceiling_data
+
+    say("what no distance curve can fix: the ceiling and the area models")
+    return ceiling_data()
+
+
+def _split(emitters: Any, shapes: Any, grid: Any) -> tuple[Any, tuple[str, ...]]:
+    """(the emitters, the shape lights): those named among the emitters and in `shapes`."""
+    emitters, named = split_shapes(emitters)
+    more = [shapes] if isinstance(shapes, str) else list(shapes)
+    return emitters, _check_shapes([*named, *more], grid)
+
+
+def _check_shapes(shapes: Sequence[Any], grid: Any) -> tuple[str, ...]:
+    """The shape lights named, each once, in the judge's order; refuses any other value."""
+    for s in shapes:
+        if s not in SHAPE_LIGHTS:
+            raise UnknownNameError(
+                f"unknown shape light {s!r}; the report judges {', '.join(SHAPE_LIGHTS)} on "
+                "its planes (and sphere, disk as emitters)"
+            )
+    if isinstance(grid, bool) or not isinstance(grid, int) or grid < 3:
+        raise BadValueError(f"shape_grid must be an integer >= 3, got {grid!r}")
+    return tuple(s for s in SHAPE_LIGHTS if s in shapes)
+
+
+def shape_rows(
+    families: Sequence[str | type] | None = None,
+    shapes: Sequence[str] = SHAPE_LIGHTS,
+    *,
+    sweep_n: int = SWEEP_N,
+    fitted: bool = True,
+    grid: int = SHAPE_GRID,
+    progress: Callable[[str], None] | None = None,
+) -> dict[str, Any]:
+    """The rectangle's and the tube's rows alone, JSON-ready: what `build_report(shapes=...)`
+    keeps in `meta["shapes"]` (`_area_shapes.shapes_data`; docs/area.md's generated table)."""
+    classes = resolve_families(families)
+    lights = _check_shapes([shapes] if isinstance(shapes, str) else shapes, grid)
+    return _shapes(classes, lights, int(sweep_n), fitted, int(grid), progress or (lambda s: None))
+
+
+def _shapes(classes, lights, sweep_n: int, fitted: bool, grid: int, say) -> dict[str, Any]:
+    """The rectangle's and the tube's rows (`_area_shapes`): every family on each light's
+    facing sweep as published and fitted (as every light's rows are made), then every model
+    judged on the light's planes."""
+    import jax
+
+    with jax.enable_x64(True):
+        sweeps = [shape_sweep(light, sweep_n) for light in lights]
+        say(f"published: {len(classes)} families x the {', '.join(lights)} sweeps")
+        pub, models, results, values = _published_rows(classes, sweeps)
+        if fitted:
+            _fitted_rows(classes, sweeps, pub, models, results, values, say)
+        return shapes_data(sweeps, models, results, grid=grid, say=say)
 
 
 def _dataset_items(datasets: Any) -> list[tuple[str, Any]]:

@@ -13,6 +13,7 @@ models, `_area_candidates.area_candidates`) are tried. Every cell is ranked by
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
@@ -176,7 +177,8 @@ def decide(
             continue
         cands = candidates(report, cfg)
         check = Verifier(cfg) if verify else None
-        extra: list[Candidate] | None = None
+        # asked for once, where no distance curve meets a tolerance
+        more = functools.cache(lambda cfg=cfg: [x for fn in sources for x in fn(cfg, report)])
         for band in GAP_BANDS:
             judged = [c for c in cands if c.errors.get(band) is not None]
             if not judged:
@@ -189,20 +191,31 @@ def decide(
                     "band": band,
                     "tolerance": tol,
                 }
-                pool = judged
-                pick = _pick(rank_band(pool, band, tol), band, tol, check)
-                if pick is None:
-                    if extra is None:
-                        extra = [x for fn in sources for x in fn(cfg, report)]
-                    pool = [*judged, *extra]
-                    pick = _pick(rank_band(pool, band, tol), band, tol, check)
-                if pick is not None:
-                    entry.update(_chosen(pick[0], judged, band, tol, check))
-                    entry.update(_worst_fields(pick[0], pick[1], band, entry["why"]))
-                else:
-                    entry.update(_none_within(rank_band(pool, band, tol), judged, band, tol, check))
+                entry.update(decide_cell(judged, more, band, tol, check))
                 out.append(entry)
     return out
+
+
+def decide_cell(
+    judged: Sequence[Candidate],
+    more: Callable[[], Sequence[Candidate]],
+    band: str,
+    tol: float,
+    check: Verifier | None,
+) -> dict[str, Any]:
+    """One cell of the decision table: the cheapest of `judged` (the distance curves) whose
+    worst case on `band` holds `tol`, else of those and `more()` (the area models, asked
+    for only then), else the closest of all, with why (`decide`'s entry fields)."""
+    pool = list(judged)
+    pick = _pick(rank_band(pool, band, tol), band, tol, check)
+    if pick is None:
+        pool = [*judged, *more()]
+        pick = _pick(rank_band(pool, band, tol), band, tol, check)
+    if pick is None:
+        return _none_within(rank_band(pool, band, tol), judged, band, tol, check)
+    entry = _chosen(pick[0], judged, band, tol, check)
+    entry.update(_worst_fields(pick[0], pick[1], band, entry["why"]))
+    return entry
 
 
 def _pick(ranking: Ranking[Candidate], band: str, tol: float, check: Verifier | None):
@@ -358,7 +371,7 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
             md_row(
                 [
                     light if group != last else "",
-                    GAP_BAND_LABELS[band] if group != last else "",
+                    (e.get("band_label") or GAP_BAND_LABELS[band]) if group != last else "",
                     tol_text,
                     same[2],
                     e["params"],
@@ -391,4 +404,12 @@ def decision_markdown(entries: Sequence[Mapping[str, Any]], costs_label: str = "
         "shape parameters fitted to the facing sweep by least squares on the relative error, "
         "ranges fixed."
     )
+    if any(e.get("band_label") for e in entries):
+        note += (
+            " *rect*, *tube* (`--emitters rect,tube`): each band is a plane of receivers, a "
+            "floor under a square panel of width w or a wall beside a tube of length l, and "
+            "the worst case is over that plane (`attenfit._judge.shape_worst_case`; the "
+            "section \"Rectangle and tube lights\"); *r* is the panel's equal-area disk's "
+            "radius or the tube's radius."
+        )
     return "\n".join(lines) + "\n\n" + note + "\n"

@@ -17,6 +17,7 @@ from .._curves import get_family
 from .._errors import UnknownNameError
 from . import _figures
 from . import _metrics as M
+from ._area_shapes import shapes_markdown
 from ._configs import MODES, WINDOWED, Config
 from ._decide import decide, decision_markdown
 from ._markdown import (
@@ -188,7 +189,8 @@ class Report:
             from .. import _progress
 
             _progress.stage("decision table: each named model's worst case, searched")
-            self._decisions = decide(self)
+            # the rectangle's and the tube's rows, decided as the report was built
+            self._decisions = decide(self) + list(self.meta.get("shapes", {}).get("decisions", []))
         return self._decisions
 
     def decision_markdown(self) -> str:
@@ -406,6 +408,9 @@ class Report:
             out += ["### Windows: what each range costs inside it and what it drops", "", win]
         for c in self.configs:
             out += self._config_markdown(c, figures)
+        if "shapes" in self.meta:
+            out += ["## Rectangle and tube lights: the ceiling", "",
+                    shapes_markdown(self.meta["shapes"])]  # fmt: skip
         if self.costs:
             out += ["## Cost against error", "", self.cost_markdown(), ""]
         if "cost_vs_error" in figures:

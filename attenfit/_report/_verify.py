@@ -91,16 +91,20 @@ class Verifier:
             sort_keys=True,
         )
 
+    def _measure(self, model: Any, band: str) -> Found | None:
+        """The search itself (`attenfit._judge.worst_case`; None: not judged there)."""
+        try:
+            w = worst_case(model, self.cfg.emitter, band)
+        except BadValueError:
+            return None
+        return Found(float(w.error), w.where(), float(w.typical))
+
     def _search(self, model: Any, band: str) -> Found | None:
         key = self._key(model, band)
         cached = _cache.read("worst", key)
         if cached is not None:
             return _decode(cached)
-        try:
-            w = worst_case(model, self.cfg.emitter, band)
-            found = Found(float(w.error), w.where(), float(w.typical))
-        except BadValueError:
-            found = None
+        found = self._measure(model, band)
         entry = None if found is None else {"error": found.error, "where": found.place,
                                              "typical": found.typical}  # fmt: skip
         _cache.write("worst", key, json.dumps(entry).encode())
