@@ -30,6 +30,7 @@ import math
 import numpy as np
 import pytest
 from _engine_code import SPOT_TOML
+from test_engine_witness import _DISK
 
 from attenfit._judge import engine_receiver_errors, get_witness
 from attenfit._scenes import Scene
@@ -39,6 +40,7 @@ from attenfit._scenes._engine import get_engine
 from attenfit._scenes._engine_fit import _geometry, engine_verdict, renders_as_spot
 
 #: no grid setting renders closer than the search's answer by more than this, relative
+#: (and 1e-9 absolute: a float64 rendering's rounding, where the best error is near 0)
 RESOLUTION = 1e-3
 
 SPHERE = """
@@ -53,18 +55,8 @@ extent = 3.0
 resolution = 12
 """
 
-DISK = """
-tolerance = 0.05
-[[lights]]
-kind = "disk"
-radius = 0.1
-position = [0.0, 0.0, 1.0]
-normal = [0, 0, -1]
-[[receivers]]
-kind = "plane"
-extent = 3.0
-resolution = 12
-"""
+#: the issue's DiskLight over a floor (its glTF range ran away), at a coarser floor
+DISK = _DISK.replace("resolution = 24", "resolution = 12")
 
 SCENES = {
     "edge spot": SPOT_TOML.format(
@@ -201,7 +193,7 @@ def _check_against_grids(w, light, props, x, size_value, verdict, n_box):
         grids[f"around {half}"] = _values(box, 5, verdict.properties, half)
     for name, values in grids.items():
         brute = _brute_force(w, light, verdict.properties, x, box, values)
-        assert got <= brute * (1 + RESOLUTION), (name, got, brute, verdict.properties)
+        assert got <= brute * (1 + RESOLUTION) + 1e-9, (name, got, brute, verdict.properties)
 
 
 ENGINES = ["godot", "threejs", "unreal", "filament", "bevy", "unity", "gltf"]
