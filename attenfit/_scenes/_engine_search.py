@@ -54,7 +54,7 @@ _N_EDGE, _N_SHAPE, _N_SIZE, _N_SPAN = 12, 10, 6, 5
 #: the axis by 7.9e-7, 13 float32 steps there (float32 rounds a cosine by 6e-8).
 _MARGIN = 1e-6
 #: the grid's cells refined by Nelder-Mead, its evaluations per property and start
-_STARTS, _NM_EVALS = 3, 80
+_STARTS, _NM_EVALS = 3, 60
 #: grid elements (cells x receivers) judged at once
 _CHUNK = 1 << 21
 
@@ -102,6 +102,18 @@ class Case:
         e = self.errors(props)
         return float(e.max()) if e.size else 0.0
 
+    def sub(self, idx: np.ndarray) -> Case:
+        """The same light at its receivers `idx` only."""
+        x = self.x
+        per_receiver = ("d", "wpt", "E_true", "E_irr", "cos_s", "theta", "denom")
+        xs = dataclasses.replace(
+            x,
+            **{k: getattr(x, k)[idx] for k in per_receiver},
+            points=None if x.points is None else x.points[idx],
+            normals=None if x.normals is None else x.normals[idx],
+        )
+        return dataclasses.replace(self, x=xs, cos_s=self.cos_s[idx], n_dot_l=self.n_dot_l[idx])
+
     def factor(self, which: int, props: Mapping[str, Any]) -> np.ndarray:
         """The witness's factor `which` (0 distance, 1 diffuse, 2 cone) at every receiver,
         at the scene's precision, as `EngineWitness.render` computes it."""
@@ -116,12 +128,18 @@ class Case:
                 return np.asarray(self.w.cone(np.asarray(self.cos_s).astype(dt), props), dt)
             return np.ones_like(d)
 
-    def judged(self, rendered: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        """`engine_receiver_errors` of `rendered` (E / I at the receivers `idx`, last axis)."""
+    def judged(self, rendered: np.ndarray, idx: np.ndarray, worst: bool = False) -> np.ndarray:
+        """`engine_receiver_errors` of `rendered` (E / I at the receivers `idx`, last axis),
+        or (`worst`) their largest over that axis."""
         x = self.x
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            E = self.light.intensity * rendered.astype(np.float64)
-            err = np.abs(E - x.E_true[idx]) / x.denom[idx]
+            err = np.asarray(rendered, np.float64) * self.light.intensity
+            err -= x.E_true[idx]
+            np.abs(err, out=err)
+            err /= x.denom[idx]
+        if worst:  # a NaN's largest is NaN: inf, as engine_receiver_errors reads it
+            m = err.max(-1)
+            return np.where(np.isnan(m), np.inf, m)
         return np.where(np.isfinite(err), err, np.inf)
 
 
@@ -172,12 +190,12 @@ def _prop_axes(case: Case, props: Mapping[str, Any], size_value: float) -> list[
             grid = [*np.geomspace(lo, far * unit, 4), *past, v0]
             axes.append(_axis(name, 0, lo, hi, "log", grid))
         elif role == "decay":
-            off = np.array([0.03, 0.1, 0.3, 1.0])
+            off = np.array([0.05, 0.25, 1.0])
             grid = [*np.linspace(lo, hi, _N_SPAN), v0, *(v0 + off), *(v0 - off)]
             axes.append(_axis(name, 0, lo, hi, "lin", grid))
         elif role == "scale":
             lo, hi = max(lo, 1e-2 * v0), min(hi, 1e2 * v0)
-            axes.append(_axis(name, 0, lo, hi, "log", [*np.geomspace(lo, hi, 9), v0]))
+            axes.append(_axis(name, 0, lo, hi, "log", [*np.geomspace(lo, hi, 7), v0]))
         elif role == "size":
             hi = min(hi, far * unit)
             grid = [*(hi * np.linspace(0.0, 1.0, _N_SIZE) ** 2), v0, size_value]
@@ -263,10 +281,10 @@ def _first_receivers(case: Case, props) -> np.ndarray:
     return np.unique(np.concatenate(picks))
 
 
-def _grid_best(case: Case, props, tables: list[np.ndarray]) -> list[tuple[float, int]]:
-    """The grid's cells with their errors over every receiver, best first: the first is the
-    grid's exact best (module docstring, 2.); the cells are flat indices of the tables'
-    product (distance, diffuse, cone)."""
+def _grid_best(case: Case, props, tables: list[np.ndarray]):
+    """(the grid's cells with their errors over every receiver, best first, the receivers
+    judged): the first is the grid's exact best (module docstring, 2.); the cells are flat
+    indices of the tables' product (distance, diffuse, cone)."""
     shape = tuple(t.shape[0] for t in tables)
     everyone = np.arange(case.x.d.size)
 
@@ -286,7 +304,7 @@ def _grid_best(case: Case, props, tables: list[np.ndarray]) -> list[tuple[float,
         out = np.empty((ds.shape[0], shape[2]))
         step = max(1, _CHUNK // (shape[2] * idx.size))
         for s in range(0, ds.shape[0], step):
-            out[s : s + step] = case.judged(ds[s : s + step, None, :] * t2[None], idx).max(-1)
+            out[s : s + step] = case.judged(ds[s : s + step, None, :] * t2[None], idx, True)
         return out.reshape(-1)
 
     seen = _first_receivers(case, props)
@@ -306,7 +324,7 @@ def _grid_best(case: Case, props, tables: list[np.ndarray]) -> list[tuple[float,
         cand = np.flatnonzero(lb < min(exact.values()))
         lb[cand] = np.maximum(lb[cand], cell_errors(cand, new).max(-1))
         seen = np.union1d(seen, new)
-    return sorted((e, c) for c, e in exact.items())
+    return sorted((e, c) for c, e in exact.items()), seen
 
 
 def _nelder_mead(f, u0: np.ndarray, step: np.ndarray, evals: int) -> tuple[np.ndarray, float]:
@@ -325,8 +343,8 @@ def _nelder_mead(f, u0: np.ndarray, step: np.ndarray, evals: int) -> tuple[np.nd
     while used < evals:
         order = np.argsort(val, kind="stable")
         sim, val = sim[order], val[order]
-        if val[-1] - val[0] <= 1e-12 * max(1.0, abs(val[0])) and np.ptp(sim, 0).max() < 1e-12:
-            break
+        if val[-1] - val[0] <= 1e-6 * val[0] + 1e-12 and np.all(np.ptp(sim, 0) <= 1e-3 * step):
+            break  # flat and small: a millionth of the error, a thousandth of the first steps
         centre = sim[:-1].mean(0)
         r = np.clip(2 * centre - sim[-1], 0.0, 1.0)
         fr = f(r)
@@ -370,39 +388,61 @@ def search(case: Case, props: Mapping[str, Any], size_value: float = 0.0):
                 p[a.name] = edge + margin
         return p
 
-    cells, tables = _tables(case, props, axes, guard)
-    shape = tuple(len(c) for c in cells)
-    seen: dict[tuple[float, ...], float] = {}
-
-    def props_at(u: np.ndarray) -> dict[str, Any]:
+    def at(u: np.ndarray) -> dict[str, Any]:  # the properties judged for u
+        u = np.round(np.clip(u, 0.0, 1.0), 15)
         return guard({**props, **{a.name: a.value(v) for a, v in zip(axes, u, strict=True)}})
 
-    def key(u: np.ndarray) -> np.ndarray:  # the point judged for u
-        return np.round(np.clip(u, 0.0, 1.0), 15)
-
-    def f(u: np.ndarray) -> float:
-        k = tuple(key(u))
-        if k not in seen:
-            seen[k] = case.worst(props_at(np.array(k)))
-        return seen[k]
-
+    cells, tables = _tables(case, props, axes, guard)
+    shape = tuple(len(c) for c in cells)
+    ranked, seen = _grid_best(case, props, tables)
     best_p, best_e = props, start_e
     starts: list[np.ndarray] = []
-    for _, flat in _grid_best(case, props, tables):
+    for _, flat in ranked:
         i = np.unravel_index(flat, shape)
-        values = {k: v for f_, j in enumerate(i) for k, v in cells[f_][j].items()}
+        values = {k: v for f, j in enumerate(i) for k, v in cells[f][j].items()}
         u0 = np.array([a.coord(values[a.name]) for a in axes])
         if any(np.abs(u0 - s).max() < 0.05 for s in starts):
             continue
         starts.append(u0)
         step = np.array([_spacing(a, values[a.name]) for a in axes])
-        u, e = _nelder_mead(f, u0, step, _NM_EVALS * len(axes))
-        u, e = _nelder_mead(f, u, 0.25 * step, _NM_EVALS * len(axes))  # a restart
+        p, e = _refine(case, at, u0, step, seen)
         if e < best_e:
-            best_p, best_e = props_at(key(u)), e
+            best_p, best_e = p, e
         if len(starts) == _STARTS:
             break
     return best_p, best_e
+
+
+def _refine(case: Case, at, u0: np.ndarray, step: np.ndarray, seen: np.ndarray):
+    """Nelder-Mead from `u0` (and a restart at a quarter of its steps) judged at a set of
+    receivers (`seen`, and the start's worst), grown by the worst receivers of its result
+    until that result's error over them is its error over all: (props, their error)."""
+    idx = np.union1d(seen, np.argsort(case.errors(at(u0)))[-16:])
+    u = u0
+    for _ in range(4):
+        f = _memo_worst(case.sub(idx), at)
+        u, e = _nelder_mead(f, u, step, _NM_EVALS * u.size)
+        u, e = _nelder_mead(f, u, 0.25 * step, _NM_EVALS * u.size)
+        full = case.errors(at(u))
+        worst = float(full.max()) if full.size else 0.0
+        new = np.setdiff1d(np.argsort(full)[-32:], idx)
+        if worst <= e * (1 + 1e-12) or new.size == 0:
+            break
+        idx, step = np.union1d(idx, new), 0.5 * step
+    return at(u), worst
+
+
+def _memo_worst(case: Case, at):
+    """u -> the largest error of `at(u)` at `case`'s receivers, each point judged once."""
+    memo: dict[tuple[float, ...], float] = {}
+
+    def f(u: np.ndarray) -> float:
+        k = tuple(np.round(np.clip(u, 0.0, 1.0), 15))
+        if k not in memo:
+            memo[k] = case.worst(at(np.array(k)))
+        return memo[k]
+
+    return f
 
 
 def _spacing(a: _Axis, v: float) -> float:
