@@ -2,7 +2,7 @@
 exposes for it, judged through the engine witness (`attenfit._judge._engine_shading`) with
 the worst-case judge at the light's judged receivers.
 
-The properties (`_axes`): the spot cone's outer edge and shape (`EngineWitness.cone_props`,
+The properties (`_prop_axes`, `_cone_axes`): the spot cone's outer edge and shape (`EngineWitness.cone_props`,
 within the engine's bounds), and `EngineWitness.search_props`: the range (from the nearest
 receiver to 1e3 x the farthest, where the window is 1 to 2e-12 at every receiver), the
 distance exponent (Godot's `*_attenuation`, three.js's `decay`, Unreal's
@@ -12,23 +12,33 @@ to 100 x the mapped one) and the light size that reaches the diffuse term (Godot
 family sets (Unreal's `bUseInverseSquaredFalloff`) is kept.
 
 The search (`search`):
-1. a grid over the joint box (`_axes`: per property a few values across its bounds, the
+1. a grid over the joint box (per property a few values across its bounds, the
    mapped value, and values where the error changes fast: near the mapped exponent, sizes
    near 0, ranges just past the farthest receiver, and the cone's edge at log-spaced
    offsets past the outermost lit receiver (`_edge`), where the largest error has narrow
    valleys between a plateau at 100% and the cone's flat inside);
-2. its exact best cells (`_grid_best`): the engine's rendering is a product of three
+2. its exact best cells (`_Grid.best`): the engine's rendering is a product of three
    factors, each a function of its own properties (`EngineWitness.render`: distance x
    diffuse x cone), so each is tabulated once per grid value at every receiver and the grid
    is the product of the tables. Judged on a growing set of receivers (an exchange: the
    worst receivers of the best cells join it) until the best cell's error on the set is its
    error over all receivers, the grid's best is exact;
-3. Nelder-Mead (`_nelder_mead`) from the `_STARTS` best cells, in coordinates of the box
-   scaled per property (log for a range, a scale and `cone_log`), its first steps the grid's
-   spacing there, each point judged through the witness itself.
+3. from the `_STARTS` best cells, in coordinates of the box scaled per property (log for a
+   range, a brightness and `cone_log`, square root for a size), first Nelder-Mead
+   (`_nelder_mead_at`: its first steps the grid's spacing there; judged at the receivers
+   that matter, grown until its result's error there is its error everywhere), then a
+   descent (`_descend`) on 3^k product grids around the point (every combination of -h, 0
+   and +h per property, judged exactly as in 2.), moving to the best cell while it is
+   better and halving h when none is, down to 1e-9 of the box: Nelder-Mead follows the
+   diagonal valleys of the largest error, the descent settles it where no nearby grid
+   point renders closer (the largest error is not smooth, where Nelder-Mead can stall).
 
-The answer is the best setting seen, never worse than the mapping (it is a cell of the
-grid). tests/test_engine_search.py checks it against brute-force grids over the same box.
+The answer is the best setting reached, never worse than the mapping. The largest error
+can have several valleys (a window whose range sits just past the farthest lit receiver
+shapes a floor's light like a cone): the answer is the best of the grid's best cells,
+refined, not a proof of the best between grid points. tests/test_engine_search.py checks it
+against brute-force grids over the same box and fine ones around the answer: none renders
+closer by more than 0.1% (relative).
 """
 
 from __future__ import annotations
@@ -53,8 +63,9 @@ _N_EDGE, _N_SHAPE, _N_SIZE, _N_SPAN = 12, 10, 6, 5
 #: lit receiver: 1.6e-6 rad for an angle in radians, which moves the cosine 30 degrees off
 #: the axis by 7.9e-7, 13 float32 steps there (float32 rounds a cosine by 6e-8).
 _MARGIN = 1e-6
-#: the grid's cells refined by Nelder-Mead, its evaluations per property and start
-_STARTS, _NM_EVALS = 3, 60
+#: the grid's cells refined (`search`); Nelder-Mead's evaluations per property and run;
+#: the descent's most steps and smallest step (`_descend`)
+_STARTS, _NM_EVALS, _STEPS, _H_MIN = 3, 60, 60, 1e-9
 #: grid elements (cells x receivers) judged at once
 _CHUNK = 1 << 21
 
@@ -250,20 +261,87 @@ def _edge(case: Case, props, oname, sname, olo, ohi, slo) -> float | None:
     return b
 
 
-def _tables(case: Case, props, axes: list[_Axis], guard) -> tuple[list, list[np.ndarray]]:
-    """Per factor (0 distance, 1 diffuse, 2 cone): its axes' grid cells (value tuples) and
-    the factor at every receiver for each cell (rows)."""
-    cells, tables = [], []
-    for f in range(3):
-        group = [a for a in axes if a.factor == f]
-        combos = list(itertools.product(*(a.grid for a in group)))
-        names = [a.name for a in group]
-        rows = [
-            case.factor(f, guard({**props, **dict(zip(names, c, strict=True))})) for c in combos
-        ]
-        cells.append([dict(zip(names, c, strict=True)) for c in combos])
-        tables.append(np.stack(rows))
-    return cells, tables
+@dataclasses.dataclass(frozen=True)
+class _Grid:
+    """A product grid of property values (per axis of `axes`, `values`), judged through the
+    witness's three factors: per factor, the factor at every receiver for each combination
+    of its axes' values (`tables`, rows in `itertools.product` order); a cell (a flat index
+    of the tables' product) renders the product of its rows, as `EngineWitness.render`."""
+
+    case: Case
+    groups: tuple[tuple[int, ...], ...]  # per factor, the indices of its axes
+    sizes: tuple[int, ...]  # per axis, its number of values
+    tables: tuple[np.ndarray, ...]
+
+    @classmethod
+    def of(cls, case: Case, props, axes: list[_Axis], values, guard) -> _Grid:
+        groups, tables = [], []
+        for f in range(3):
+            group = tuple(i for i, a in enumerate(axes) if a.factor == f)
+            rows = []
+            for combo in itertools.product(*(values[i] for i in group)):
+                p = {**props, **{axes[i].name: v for i, v in zip(group, combo, strict=True)}}
+                rows.append(case.factor(f, guard(p)))
+            groups.append(group)
+            tables.append(np.stack(rows))
+        return cls(case, tuple(groups), tuple(len(v) for v in values), tuple(tables))
+
+    def position(self, flat: int) -> list[int]:
+        """Per axis, the index of cell `flat`'s value."""
+        pos = [0] * len(self.sizes)
+        rows = np.unravel_index(flat, [t.shape[0] for t in self.tables])
+        for group, row in zip(self.groups, rows, strict=True):
+            if group:
+                sub = np.unravel_index(row, [self.sizes[i] for i in group])
+                for i, j in zip(group, sub, strict=True):
+                    pos[i] = int(j)
+        return pos
+
+    def errors(self, flat: np.ndarray, idx: np.ndarray) -> np.ndarray:
+        """The judged errors of cells `flat` at the receivers `idx`."""
+        i0, i1, i2 = np.unravel_index(flat, [t.shape[0] for t in self.tables])
+        t0, t1, t2 = (t[:, idx] for t in self.tables)
+        out = np.empty((flat.size, idx.size))
+        step = max(1, _CHUNK // max(idx.size, 1))
+        for s in range(0, flat.size, step):
+            sl = slice(s, s + step)
+            out[sl] = self.case.judged(t0[i0[sl]] * t1[i1[sl]] * t2[i2[sl]], idx)
+        return out
+
+    def worst(self, idx: np.ndarray) -> np.ndarray:
+        """Every cell's largest judged error at the receivers `idx`."""
+        t0, t1, t2 = (t[:, idx] for t in self.tables)
+        ds = (t0[:, None, :] * t1[None, :, :]).reshape(-1, idx.size)
+        out = np.empty((ds.shape[0], t2.shape[0]))
+        step = max(1, _CHUNK // (t2.shape[0] * idx.size))
+        for s in range(0, ds.shape[0], step):
+            out[s : s + step] = self.case.judged(ds[s : s + step, None, :] * t2[None], idx, True)
+        return out.reshape(-1)
+
+    def best(self, seen: np.ndarray) -> tuple[list[tuple[float, int]], np.ndarray]:
+        """(cells with their errors over every receiver, best first; the receivers judged):
+        the first is the grid's exact best. Every cell is judged at the receivers `seen`
+        (its largest error there bounds its largest below); the best few are judged at
+        every receiver, and their worst receivers join `seen`, until the best cell's bound
+        is its error (module docstring, 2.)."""
+        everyone = np.arange(self.case.x.d.size)
+        lb = self.worst(seen)
+        exact: dict[int, float] = {}
+        for _ in range(64):
+            top = np.argsort(lb, kind="stable")[:4]
+            worst_receivers = []
+            for c in (int(c) for c in top if int(c) not in exact):
+                e = self.errors(np.array([c]), everyone)[0]
+                exact[c] = float(e.max())
+                worst_receivers += list(np.argsort(e)[-2:])
+            best = int(top[0])
+            new = np.setdiff1d(np.asarray(worst_receivers, int), seen)
+            if exact[best] <= lb[best] or new.size == 0:
+                break
+            cand = np.flatnonzero(lb < min(exact.values()))
+            lb[cand] = np.maximum(lb[cand], self.errors(cand, new).max(-1))
+            seen = np.union1d(seen, new)
+        return sorted((e, c) for c, e in exact.items()), seen
 
 
 def _first_receivers(case: Case, props) -> np.ndarray:
@@ -281,50 +359,89 @@ def _first_receivers(case: Case, props) -> np.ndarray:
     return np.unique(np.concatenate(picks))
 
 
-def _grid_best(case: Case, props, tables: list[np.ndarray]):
-    """(the grid's cells with their errors over every receiver, best first, the receivers
-    judged): the first is the grid's exact best (module docstring, 2.); the cells are flat
-    indices of the tables' product (distance, diffuse, cone)."""
-    shape = tuple(t.shape[0] for t in tables)
-    everyone = np.arange(case.x.d.size)
+def search(case: Case, props: Mapping[str, Any], size_value: float = 0.0):
+    """The engine's closest settings from the mapping `props` (module docstring): (props,
+    their largest error through the witness), never worse than `props`'."""
+    props = dict(props)
+    cone, edge = _cone_axes(case, props)
+    axes = _prop_axes(case, props, size_value) + cone
+    start_e = case.worst(props)
+    if not axes or case.x.d.size == 0:
+        return props, start_e
 
-    def cell_errors(flat: np.ndarray, idx: np.ndarray) -> np.ndarray:
-        i0, i1, i2 = np.unravel_index(flat, shape)
-        t0, t1, t2 = (t[:, idx] for t in tables)
-        out = np.empty((flat.size, idx.size))
-        step = max(1, _CHUNK // max(idx.size, 1))
-        for s in range(0, flat.size, step):
-            sl = slice(s, s + step)
-            out[sl] = case.judged(t0[i0[sl]] * t1[i1[sl]] * t2[i2[sl]], idx)
-        return out
+    def guard(p: dict[str, Any]) -> dict[str, Any]:
+        if edge is not None:  # float32 rounding of a receiver's cosine cannot cross it
+            a = cone[0]
+            margin = _MARGIN * (a.hi - a.lo)
+            if edge < p[a.name] < edge + margin:
+                p[a.name] = edge + margin
+        return p
 
-    def grid_worst(idx: np.ndarray) -> np.ndarray:
-        t0, t1, t2 = (t[:, idx] for t in tables)
-        ds = (t0[:, None, :] * t1[None, :, :]).reshape(-1, idx.size)
-        out = np.empty((ds.shape[0], shape[2]))
-        step = max(1, _CHUNK // (shape[2] * idx.size))
-        for s in range(0, ds.shape[0], step):
-            out[s : s + step] = case.judged(ds[s : s + step, None, :] * t2[None], idx, True)
-        return out.reshape(-1)
+    def at(u: np.ndarray) -> dict[str, Any]:  # the properties judged at coordinates u
+        u = np.round(np.clip(u, 0.0, 1.0), 15)
+        return guard({**props, **{a.name: a.value(v) for a, v in zip(axes, u, strict=True)}})
 
-    seen = _first_receivers(case, props)
-    lb = grid_worst(seen)  # each cell's largest error over the receivers seen: a lower bound
-    exact: dict[int, float] = {}
-    for _ in range(64):
-        top = np.argsort(lb, kind="stable")[:4]
-        worst_receivers = []
-        for c in (int(c) for c in top if int(c) not in exact):
-            e = cell_errors(np.array([c]), everyone)[0]
-            exact[c] = float(e.max())
-            worst_receivers += list(np.argsort(e)[-2:])
-        best = int(top[0])
-        new = np.setdiff1d(np.asarray(worst_receivers, int), seen)
-        if exact[best] <= lb[best] or new.size == 0:
+    grid = _Grid.of(case, props, axes, [a.grid for a in axes], guard)
+    ranked, seen = grid.best(_first_receivers(case, props))
+    best_p, best_e = props, start_e
+    starts: list[np.ndarray] = []
+    for _, flat in ranked:
+        values = [a.grid[j] for a, j in zip(axes, grid.position(flat), strict=True)]
+        u0 = np.array([a.coord(v) for a, v in zip(axes, values, strict=True)])
+        if any(np.abs(u0 - s).max() < 0.05 for s in starts):
+            continue
+        starts.append(u0)
+        # first steps: the grid's spacing (at least 1/50 of the box, but at the cone's edge)
+        h = np.array([_spacing(a, v) if edge is not None and a is cone[0] else
+                      max(_spacing(a, v), 0.02) for a, v in zip(axes, values, strict=True)])  # fmt: skip
+        u, seen = _nelder_mead_at(case, at, u0, h, seen)
+        u, seen = _descend(case, props, axes, guard, u, 0.25 * h, seen)
+        p = at(u)
+        e = case.worst(p)
+        if e < best_e:
+            best_p, best_e = p, e
+        if len(starts) == _STARTS:
             break
-        cand = np.flatnonzero(lb < min(exact.values()))
-        lb[cand] = np.maximum(lb[cand], cell_errors(cand, new).max(-1))
-        seen = np.union1d(seen, new)
-    return sorted((e, c) for c, e in exact.items()), seen
+    return best_p, best_e
+
+
+def _descend(case: Case, props, axes, guard, u: np.ndarray, h: np.ndarray, seen: np.ndarray):
+    """From `u` (coordinates of the box), the best cell of the 3^k grid `u` + {-h, 0, h}
+    (a product grid, `_Grid`: its exact best) is taken while it is better than `u`, the
+    steps then growing by 5/4 (to 1/4 of the box); else the steps halve, down to `_H_MIN`
+    (module docstring, 3.). (the point reached, the receivers judged)."""
+    everyone = np.arange(case.x.d.size)
+    u = np.clip(u, 0.0, 1.0)
+    for _ in range(_STEPS):
+        offs = [sorted({min(max(ui + s * hi, 0.0), 1.0) for s in (-1.0, 0.0, 1.0)})
+                for ui, hi in zip(u, h, strict=True)]  # fmt: skip
+        grid = _Grid.of(
+            case,
+            props,
+            axes,
+            [[a.value(o) for o in off] for a, off in zip(axes, offs, strict=True)],
+            guard,
+        )
+        ranked, seen = grid.best(seen)
+        e, flat = ranked[0]
+        centre = [off.index(ui) for off, ui in zip(offs, u, strict=True)]
+        c = int(np.ravel_multi_index(_rows(grid, centre), [t.shape[0] for t in grid.tables]))
+        if e < float(grid.errors(np.array([c]), everyone).max()):
+            u = np.array([off[j] for off, j in zip(offs, grid.position(flat), strict=True)])
+            h = np.minimum(1.25 * h, 0.25)
+        else:
+            h = 0.5 * h
+            if h.max() < _H_MIN:
+                break
+    return u, seen
+
+
+def _rows(grid: _Grid, pos: list[int]) -> tuple[int, ...]:
+    """Per factor, the table row of the axes' value indices `pos`."""
+    return tuple(
+        int(np.ravel_multi_index([pos[i] for i in g], [grid.sizes[i] for i in g])) if g else 0
+        for g in grid.groups
+    )
 
 
 def _nelder_mead(f, u0: np.ndarray, step: np.ndarray, evals: int) -> tuple[np.ndarray, float]:
@@ -370,53 +487,11 @@ def _nelder_mead(f, u0: np.ndarray, step: np.ndarray, evals: int) -> tuple[np.nd
     return sim[i], float(val[i])
 
 
-def search(case: Case, props: Mapping[str, Any], size_value: float = 0.0):
-    """The engine's closest settings from the mapping `props` (module docstring): (props,
-    their largest error through the witness), never worse than `props`'."""
-    props = dict(props)
-    cone, edge = _cone_axes(case, props)
-    axes = _prop_axes(case, props, size_value) + cone
-    start_e = case.worst(props)
-    if not axes or case.x.d.size == 0:
-        return props, start_e
-
-    def guard(p: dict[str, Any]) -> dict[str, Any]:
-        if edge is not None:  # float32 rounding of a receiver's cosine cannot cross it
-            a = cone[0]
-            margin = _MARGIN * (a.hi - a.lo)
-            if edge < p[a.name] < edge + margin:
-                p[a.name] = edge + margin
-        return p
-
-    def at(u: np.ndarray) -> dict[str, Any]:  # the properties judged for u
-        u = np.round(np.clip(u, 0.0, 1.0), 15)
-        return guard({**props, **{a.name: a.value(v) for a, v in zip(axes, u, strict=True)}})
-
-    cells, tables = _tables(case, props, axes, guard)
-    shape = tuple(len(c) for c in cells)
-    ranked, seen = _grid_best(case, props, tables)
-    best_p, best_e = props, start_e
-    starts: list[np.ndarray] = []
-    for _, flat in ranked:
-        i = np.unravel_index(flat, shape)
-        values = {k: v for f, j in enumerate(i) for k, v in cells[f][j].items()}
-        u0 = np.array([a.coord(values[a.name]) for a in axes])
-        if any(np.abs(u0 - s).max() < 0.05 for s in starts):
-            continue
-        starts.append(u0)
-        step = np.array([_spacing(a, values[a.name]) for a in axes])
-        p, e = _refine(case, at, u0, step, seen)
-        if e < best_e:
-            best_p, best_e = p, e
-        if len(starts) == _STARTS:
-            break
-    return best_p, best_e
-
-
-def _refine(case: Case, at, u0: np.ndarray, step: np.ndarray, seen: np.ndarray):
+def _nelder_mead_at(case: Case, at, u0: np.ndarray, step: np.ndarray, seen: np.ndarray):
     """Nelder-Mead from `u0` (and a restart at a quarter of its steps) judged at a set of
     receivers (`seen`, and the start's worst), grown by the worst receivers of its result
-    until that result's error over them is its error over all: (props, their error)."""
+    until that result's error over them is its error over all: (the point reached, the
+    receivers judged)."""
     idx = np.union1d(seen, np.argsort(case.errors(at(u0)))[-16:])
     u = u0
     for _ in range(4):
@@ -424,12 +499,11 @@ def _refine(case: Case, at, u0: np.ndarray, step: np.ndarray, seen: np.ndarray):
         u, e = _nelder_mead(f, u, step, _NM_EVALS * u.size)
         u, e = _nelder_mead(f, u, 0.25 * step, _NM_EVALS * u.size)
         full = case.errors(at(u))
-        worst = float(full.max()) if full.size else 0.0
         new = np.setdiff1d(np.argsort(full)[-32:], idx)
-        if worst <= e * (1 + 1e-12) or new.size == 0:
+        if full.size == 0 or float(full.max()) <= e * (1 + 1e-12) or new.size == 0:
             break
         idx, step = np.union1d(idx, new), 0.5 * step
-    return at(u), worst
+    return u, idx
 
 
 def _memo_worst(case: Case, at):
@@ -446,7 +520,7 @@ def _memo_worst(case: Case, at):
 
 
 def _spacing(a: _Axis, v: float) -> float:
-    """The grid's spacing at `v` on axis `a`, in its coordinate (Nelder-Mead's first step)."""
+    """The grid's spacing at `v` on axis `a`, in its coordinate (the descent's first step)."""
     u = a.coord(v)
     gaps = [abs(a.coord(g) - u) for g in a.grid]
     gaps = [g for g in gaps if g > 1e-15]
