@@ -23,6 +23,7 @@ from ._cli import (
     _cmd_report,
     _cmd_scene,
     _cmd_truth,
+    _cmd_warm,
 )
 from ._cli._common import EXIT_BAD_INPUT, EXIT_ERROR, EXIT_NOT_CONVERGED, EXIT_OK
 from ._errors import AttenfitError, BadTypeError, BadValueError, OutputExistsError
@@ -78,6 +79,7 @@ def get_parser() -> argparse.ArgumentParser:
         _cmd_scene,
         _cmd_export,
         _cmd_cache,
+        _cmd_warm,
     ):
         verb.add_parser(sub, [common])
     return parser

@@ -37,6 +37,7 @@ from ._windowed import ThreeJS as ThreeJS
 from ._windowed import UnrealExponent as UnrealExponent
 from ._windowed import UnrealWindow as UnrealWindow
 from ._spline import Spline as Spline
+from ._spline import spline_curve as spline_curve
 from ._area import AREA_INPUTS as AREA_INPUTS
 from ._area import INPUT_RANGES as INPUT_RANGES
 from ._area import RECT_INPUTS as RECT_INPUTS
@@ -61,6 +62,7 @@ from ._rect_models import ClippedRect as ClippedRect
 from ._rect_models import FrostbiteRect as FrostbiteRect
 from ._rect_models import RectModel as RectModel
 from ._rect_models import ThreeRect as ThreeRect
+from ._unreal_rect import UnrealRect as UnrealRect
 from ._tube_models import FrostbiteTube as FrostbiteTube
 from ._tube_models import KarisTube as KarisTube
 from ._tube_models import LambertLine as LambertLine

@@ -10,14 +10,14 @@ from typing import ClassVar
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import ArrayLike, Float
+from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadValueError
 from . import _parts as parts
 from ._family import Family, Out, jit_call, register_family
 from ._model_base import no_shader_form
 
-__all__ = ["Spline"]
+__all__ = ["Spline", "spline_curve"]
 
 # ----------------------------------------------------------------------------- spline
 _SPLINE_KNOTS = (1e-3, 1e-2, 1e-1, 1.0, 10.0, 100.0)
@@ -68,25 +68,31 @@ class Spline(Family):
     @jit_call
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Out:
         d, values = parts.promote(d, self.knot_values)
-        d = parts.distance(d)
-        logk = jnp.log(jnp.asarray(self.knots, dtype=d.dtype))
-        k0 = self.knots[0]
-        kn = self.knots[-1]
-        mid = (d > k0) & (d < kn)
-        logd = jnp.log(jnp.where(mid, d, jnp.full_like(d, k0)))
+        return spline_curve(d, values, jnp.asarray(self.knots, dtype=d.dtype))
 
-        k = values.shape[-1]
-        if k != len(self.knots):
-            raise ValueError(f"spline: knot_values has {k} values for {len(self.knots)} knots")
-        shape = jnp.broadcast_shapes(d.shape, values.shape[:-1])
-        d = jnp.broadcast_to(d, shape)
-        if values.ndim > 1:  # batched knot values: one row per point
-            values = jnp.broadcast_to(values, (*shape, k))
-        interp = parts.monotone_cubic(jnp.broadcast_to(logd, shape), logk, values)
-        f_mid = jnp.exp(interp)
-        f_first = jnp.exp(values[..., 0])
-        far = d >= kn
-        d_far = jnp.where(far, d, jnp.full_like(d, kn))
-        ratio = kn / d_far
-        f_far = jnp.exp(values[..., -1]) * ratio * ratio
-        return parts.keep_nan(d, jnp.where(mid, f_mid, jnp.where(far, f_far, f_first)))
+
+def spline_curve(d: Array, values: Array, knots: Array) -> Array:
+    """`Spline`'s curve at `d` (promoted with `values`) through knot distances `knots`, an
+    array (traced or not: a compiled solve can take the knots as data, `attenfit._scenes`)."""
+    d = parts.distance(d)
+    logk = jnp.log(knots)
+    k0 = knots[0]
+    kn = knots[-1]
+    mid = (d > k0) & (d < kn)
+    logd = jnp.log(jnp.where(mid, d, jnp.full_like(d, k0)))
+
+    k = values.shape[-1]
+    if k != knots.shape[0]:
+        raise ValueError(f"spline: knot_values has {k} values for {knots.shape[0]} knots")
+    shape = jnp.broadcast_shapes(d.shape, values.shape[:-1])
+    d = jnp.broadcast_to(d, shape)
+    if values.ndim > 1:  # batched knot values: one row per point
+        values = jnp.broadcast_to(values, (*shape, k))
+    interp = parts.monotone_cubic(jnp.broadcast_to(logd, shape), logk, values)
+    f_mid = jnp.exp(interp)
+    f_first = jnp.exp(values[..., 0])
+    far = d >= kn
+    d_far = jnp.where(far, d, jnp.full_like(d, kn))
+    ratio = kn / d_far
+    f_far = jnp.exp(values[..., -1]) * ratio * ratio
+    return parts.keep_nan(d, jnp.where(mid, f_mid, jnp.where(far, f_far, f_first)))

@@ -163,7 +163,12 @@ def _pair_spec(model: tuple, batched: bool) -> tuple[Spec, dict[str, np.ndarray]
         kinds=tuple(constraints.get(n, "real") for n in names),
         shapes=shapes,
         family=None,
-        length_params=(),
+        # a function may declare what a `Model` class does (`_guess`: the scaled starts,
+        # the range scanned beyond the data, the linear start), as attenfit's own
+        # combined solves of several families do (`attenfit._scenes._family_solves`)
+        length_params=tuple(getattr(fn, "length_params", ())),
+        range_param=getattr(fn, "range_param", None),
+        inverse_linear=getattr(fn, "inverse_linear", None),
     )
     return spec, values
 

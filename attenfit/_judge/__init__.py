@@ -5,6 +5,11 @@ Imports the curves, truth, fitting and shaders stages, and nothing above. The re
 scene stage decide through it.
 """
 
+from ._area_shading import AREA_WITNESSES as AREA_WITNESSES
+from ._area_shading import AreaWitness as AreaWitness
+from ._area_shading import area_witnesses as area_witnesses
+from ._area_shading import best_intensity as best_intensity
+from ._area_shading import window_range as window_range
 from ._engine_shading import WITNESSES as WITNESSES
 from ._engine_shading import EngineWitness as EngineWitness
 from ._engine_shading import engine_receiver_errors as engine_receiver_errors

@@ -88,6 +88,18 @@ class EngineWitness(abc.ABC):
     #: "size" (a light size in the diffuse term); low and high are the engine's own bounds
     #: (inf: none). A property missing from an answer's properties is not moved.
     search_props: ClassVar[tuple[tuple[str, str, float, float, float], ...]] = ()
+    #: the light's intensity property, and how many of its units make one candela: an
+    #: answer that states it (a tube's point light, `attenfit._scenes._engine_area`) is
+    #: rendered at that intensity, else at the scene's (`engine_receiver_errors`)
+    intensity_prop: ClassVar[str] = "intensity"
+    intensity_per_cd: ClassVar[float] = 1.0
+
+    @classmethod
+    def intensity_of(cls, props: Props, default: float) -> float:
+        """The intensity in candela that `props` states (`intensity_prop`), else `default`."""
+        if cls.intensity_prop in props:
+            return float(props[cls.intensity_prop]) / cls.intensity_per_cd
+        return default
 
     @classmethod
     @abc.abstractmethod
@@ -161,6 +173,9 @@ class GodotWitness(EngineWitness):
         ("spot_attenuation", "decay", 1.0, -10.0, 10.0),
         ("light_size", "size", 1.0, 0.0, math.inf),
     )
+    # Light3D.light_energy; attenfit reads it as the intensity (its omni's E = energy
+    # attenuation n.l, the convention of every Godot answer here)
+    intensity_prop = "light_energy"
 
     @classmethod
     def _key(cls, props: Props) -> str:
@@ -255,6 +270,9 @@ class UnrealWitness(EngineWitness):
         ("intensity_scale", "scale", 1.0, 0.0, math.inf),
         ("SourceRadius", "size", 100.0, 0.0, math.inf),
     )
+    # ULightComponent Intensity with IntensityUnits = Candelas (PointLightComponent.cpp
+    # ComputeLightBrightness: x 100 x 100 for its centimetres, undone by the 1/d^2 in cm)
+    intensity_prop = "Intensity"
 
     @classmethod
     def distance(cls, d, props):
@@ -346,6 +364,8 @@ class FilamentWitness(_ScaleOffsetCone):
     cone_inner, cone_outer = "spot_inner", "spot_outer"
     cone_floor = 1.0 / 1024.0
     range_prop = "falloff"
+    # LightManager::Builder::intensityCandela
+    intensity_prop = "intensityCandela"
 
     @classmethod
     def cone_cosines(cls, props):
@@ -368,6 +388,8 @@ class BevyWitness(_ScaleOffsetCone):
     cone_inner, cone_outer = "inner_angle", "outer_angle"
     cone_floor = 1e-4
     range_prop = "range"
+    # PointLight / SpotLight `intensity` in lumens: a point light's 4 pi lm per candela
+    intensity_per_cd = 4.0 * math.pi
 
 
 @final
@@ -451,8 +473,11 @@ def engine_receiver_errors(
 ) -> np.ndarray:
     """|E_engine - E_true| / denom at a scene's receivers (the scene's judged error), with
     `E_engine = intensity * witness.render(..., precision)` (the scene's precision: what
-    the answer claims); inf where it is not finite."""
-    E = intensity * witness.render(props, d, cos_s, n_dot_l, spot, precision)
+    the answer claims; `intensity` the one `props` states, if it does:
+    `EngineWitness.intensity_of`); inf where it is not finite."""
+    E = witness.intensity_of(props, intensity) * witness.render(
+        props, d, cos_s, n_dot_l, spot, precision
+    )
     with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
         err = np.abs(E - E_true) / denom
     return np.where(np.isfinite(err), err, np.inf)

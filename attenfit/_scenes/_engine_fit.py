@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from .._judge import EngineWitness
+from ._engine_area import AREA_KINDS, area_verdict
 from ._engine_search import Case, search
 from ._engine_search import geometry as _geometry
 from ._engine_search import renders_as_spot as renders_as_spot
@@ -98,4 +99,7 @@ def engine_verdict(
     if not math.isfinite(best_e):
         best_e = math.inf
     status = "pass" if best_e <= tolerance else "fail"
-    return EngineVerdict(best, best_e, errs, status, mapped, tuple(notes))
+    verdict = EngineVerdict(best, best_e, errs, status, mapped, tuple(notes))
+    if light.kind in AREA_KINDS:  # the engine's own area light, or a rescaled stand-in
+        verdict = area_verdict(verdict, w, light, x, tolerance, precision)
+    return verdict

@@ -139,12 +139,14 @@ class Case:
                 return np.asarray(self.w.cone(np.asarray(self.cos_s).astype(dt), props), dt)
             return np.ones_like(d)
 
-    def judged(self, rendered: np.ndarray, idx: np.ndarray, worst: bool = False) -> np.ndarray:
-        """`engine_receiver_errors` of `rendered` (E / I at the receivers `idx`, last axis),
-        or (`worst`) their largest over that axis."""
+    def judged(
+        self, rendered: np.ndarray, idx: np.ndarray, intensity: float, worst: bool = False
+    ) -> np.ndarray:
+        """`engine_receiver_errors` of `rendered` (E / I at the receivers `idx`, last axis;
+        I = `intensity`), or (`worst`) their largest over that axis."""
         x = self.x
         with np.errstate(invalid="ignore", over="ignore", divide="ignore"):
-            err = np.asarray(rendered, np.float64) * self.light.intensity
+            err = np.asarray(rendered, np.float64) * intensity
             err -= x.E_true[idx]
             np.abs(err, out=err)
             err /= x.denom[idx]
@@ -272,6 +274,7 @@ class _Grid:
     groups: tuple[tuple[int, ...], ...]  # per factor, the indices of its axes
     sizes: tuple[int, ...]  # per axis, its number of values
     tables: tuple[np.ndarray, ...]
+    intensity: float  # the one the properties state, else the light's (no axis moves it)
 
     @classmethod
     def of(cls, case: Case, props, axes: list[_Axis], values, guard) -> _Grid:
@@ -284,7 +287,8 @@ class _Grid:
                 rows.append(case.factor(f, guard(p)))
             groups.append(group)
             tables.append(np.stack(rows))
-        return cls(case, tuple(groups), tuple(len(v) for v in values), tuple(tables))
+        intensity = case.w.intensity_of(props, case.light.intensity)
+        return cls(case, tuple(groups), tuple(len(v) for v in values), tuple(tables), intensity)
 
     def position(self, flat: int) -> list[int]:
         """Per axis, the index of cell `flat`'s value."""
@@ -305,7 +309,7 @@ class _Grid:
         step = max(1, _CHUNK // max(idx.size, 1))
         for s in range(0, flat.size, step):
             sl = slice(s, s + step)
-            out[sl] = self.case.judged(t0[i0[sl]] * t1[i1[sl]] * t2[i2[sl]], idx)
+            out[sl] = self.case.judged(t0[i0[sl]] * t1[i1[sl]] * t2[i2[sl]], idx, self.intensity)
         return out
 
     def worst(self, idx: np.ndarray) -> np.ndarray:
@@ -315,7 +319,8 @@ class _Grid:
         out = np.empty((ds.shape[0], t2.shape[0]))
         step = max(1, _CHUNK // (t2.shape[0] * idx.size))
         for s in range(0, ds.shape[0], step):
-            out[s : s + step] = self.case.judged(ds[s : s + step, None, :] * t2[None], idx, True)
+            prod = ds[s : s + step, None, :] * t2[None]
+            out[s : s + step] = self.case.judged(prod, idx, self.intensity, worst=True)
         return out.reshape(-1)
 
     def best(self, seen: np.ndarray) -> tuple[list[tuple[float, int]], np.ndarray]:

@@ -8,11 +8,12 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .. import _cache
+from .. import _cache, _progress
 from .._curves import (
     SPOT_FALLOFFS,
     Family,
@@ -26,6 +27,23 @@ from .._curves import (
 from .._errors import AttenfitError
 from .._fit import fit, fit_many, reuse_results
 from .._shaders import compiled_cost, measure_throughput, shade_in
+from ._family_solves import (
+    FAR_RANGE as FAR_RANGE,
+)
+from ._family_solves import (
+    Member,
+    Problem,
+    group_of,
+    member,
+    solve_group,
+    tied_fn,
+)
+from ._family_solves import (
+    _range_param as _range_param,
+)
+from ._family_solves import (
+    fit_plan as fit_plan,
+)
 from ._scene import Scene
 from ._types import LightTruth
 
@@ -81,103 +99,136 @@ def light_data(scene: Scene, truth: LightTruth) -> LightData:
 
 
 # ----------------------------------------------------------------------------- fitting
-def _range_param(cls: type[Family]) -> str | None:
-    """The parameter a light's range sets (`Family.range_setter`; kept for `_choices`)."""
-    return cls.range_setter()
-
-
-#: A light with no range gives windowed families a range this many times the farthest
-#: receiver (where their window is below 1e-4 of relative effect), unless the family's
-#: own default frees its range (`just_cause_2`, whose shape needs it).
-FAR_RANGE = 10.0
-
-
-def fit_plan(
-    cls: type[Family], data: LightData, d_hi: float, knots: tuple[float, ...]
-) -> tuple[dict[str, Any], tuple[str, ...]]:
-    """Start values and free parameters of `cls` for one light."""
-    vals = dict(cls.defaults())
-    rp = _range_param(cls)
-    for p in cls.param_names():
-        if p == rp:
-            continue
-        power = cls.length_power(p)
-        if power == 1:
-            vals[p] = data.radius * (2.0 if p == "kl" else 1.0)
-        elif power == 2:
-            vals[p] = data.radius**2
-    if cls.knots_param is not None:  # an authored curve: a facing disk's through the knots
-        k = np.asarray(knots)
-        vals[cls.knots_param] = -np.log(k * k + data.radius**2)
-        vals["knots"] = knots
-    free = tuple(cls.default_free)
-    if rp is not None:
-        R = data.range
-        if R is None and rp in free:
-            vals[rp] = 2.0 * d_hi
-        else:
-            free = tuple(p for p in free if p != rp)
-            R = FAR_RANGE * d_hi if R is None else R
-            vals["R"] = R
-            vals[rp] = cls.range_value(R, data.radius)
-    return vals, free
-
-
-class _Tied:
-    """`cls` with its range parameter tied to the fitted `r` and the light's range `R`
-    (`Family.range_tie`), as a `(fn, params)` model: `fn(d, {"r": r, "R": R})`."""
-
-    def __init__(self, cls: type[Family]):
-        self.cls = cls
-        self.tied = cls.range_setter()
-
-    def __call__(self, d, p):
-        return self.cls(r=p["r"], **{self.tied: self.cls.range_value(p["R"], p["r"])})(d)
-
-    def cache_key(self) -> str:
-        """What this model computes, for the fit stage's cache across processes."""
-        return f"scenes-tied:{self.cls.__module__}.{self.cls.__qualname__}:{self.tied}"
-
-
-_TIED_FNS: dict[str, _Tied] = {}
-
-
 def _bucket(n: int, lo: int) -> int:
     """The next power of two >= max(n, lo): padded shapes reuse compiled solves."""
     return max(lo, 1 << max(0, (n - 1).bit_length()))
 
 
-def fit_group(
-    cls: type[Family],
-    datas: Sequence[LightData],
-    plans: Sequence[tuple[dict[str, Any], tuple[str, ...]]],
-) -> list[tuple[Family, bool, str]]:
-    """Fit `cls` to lights sharing one set of free parameters; (model, converged, message)."""
-    free = plans[0][1]
-    starts = [p[0] for p in plans]
-    if not free:
-        return [
-            (cls(**{k: s[k] for k in cls.param_names()}), True, "no free parameter") for s in starts
-        ]
-    knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.knots_param is not None else {}
-    n = _bucket(max(len(x.d) for x in datas), 64)
-    b = _bucket(len(datas), 2)
-    # pad every light to n receivers with zero-weight copies, and the batch to b problems with
-    # copies of the first light (their results are dropped)
-    D, T, W = (np.empty((b, n)) for _ in range(3))
-    rows = [*range(len(datas)), *([0] * (b - len(datas)))]
-    for k, src in enumerate(rows):
-        x = datas[src]
-        m = len(x.d)
+#: Problems per group solve, at least (padded): a scene's and a range search's solves of
+#: one group then share one compiled program.
+_BATCH = 16
+
+Plan = tuple[dict[str, Any], tuple[str, ...]]
+#: One family fitted to lights sharing one set of free parameters.
+Request = tuple[type[Family], Sequence[LightData], Sequence[Plan]]
+Fitted = list[tuple[Family, bool, str]]
+
+
+def _problems(cls: type[Family], datas: Sequence[LightData], plans: Sequence[Plan], n: int):
+    """A request's problems, each light's samples padded to `n` with zero-weight copies."""
+    out = []
+    m = member(cls, plans[0][1])
+    for x, (start, _) in zip(datas, plans, strict=True):
         ok = x.E_irr > 0
         target = np.where(ok, x.E_irr / x.wpt, 1.0)
         w = np.where(ok, x.E_true / x.denom, 0.0)
-        D[k] = np.concatenate([x.d, np.full(n - m, x.d[0])])
-        T[k] = np.concatenate([target, np.full(n - m, target[0])])
-        W[k] = np.concatenate([w, np.zeros(n - m)])
+        pad = n - len(x.d)
+        out.append(
+            Problem(
+                m,
+                start,
+                np.concatenate([x.d, np.full(pad, x.d[0])]),
+                np.concatenate([target, np.full(pad, target[0])]),
+                np.concatenate([w, np.zeros(pad)]),
+            )
+        )
+    return out
+
+
+def _model(m: Member, start: dict[str, Any], fitted: dict[str, np.ndarray]) -> Family:
+    """The family `m.cls` at its start values with the fitted ones in."""
+    cls = m.cls
+    if m.tied:
+        r = float(fitted["r"])
+        return cls(r=r, **{cls.range_setter(): cls.range_value(float(start["R"]), r)})
+    knots_kw = {"knots": tuple(start["knots"])} if cls.knots_param is not None else {}
+    template = cls(**{p: start[p] for p in cls.param_names()}, **knots_kw)
+    # as `fit_many` builds its models: a value on its bound (a radius at 0) is kept
+    return eqx.tree_at(
+        lambda t: t.param_leaves(),
+        template,
+        [fitted.get(p, start[p]) for p in cls.param_names()],
+        is_leaf=lambda x: x is None,
+    )
+
+
+def fit_families(requests: Sequence[Request]) -> list[Fitted | AttenfitError]:
+    """Fit each request, in as few compiled solves as their structure allows
+    (`_family_solves`): per request, each light's (model, converged, message), or the
+    error that kept the family from being fitted."""
+    out: list[Fitted | AttenfitError | None] = [None] * len(requests)
+    groups: dict[Any, list[int]] = {}
+    for i, (cls, datas, plans) in enumerate(requests):
+        if not plans[0][1]:
+            out[i] = [
+                (cls(**{k: s[k] for k in cls.param_names()}), True, "no free parameter")
+                for s, _ in plans
+            ]
+            continue
+        key = group_of(member(cls, plans[0][1]))
+        n = _bucket(max(len(x.d) for x in datas), 64)
+        groups.setdefault((key, n) if key is not None else ("alone", i), []).append(i)
+    with _progress.count(len(groups), f"{len(groups)} solves") as bar:
+        for (key, n), idx in groups.items():
+            if key == "alone":
+                out[n] = _fit_alone(*requests[n])
+            else:
+                _solve(key, n, [(i, requests[i]) for i in idx], out)
+            bar.update()
+    return out  # type: ignore[return-value]
+
+
+def _solve(members, n: int, requests, out) -> None:
+    """Requests of one group in one solve (each alone where that fails: its own error)."""
+    problems, owner = [], []
+    for i, (cls, datas, plans) in requests:
+        problems += _problems(cls, datas, plans, n)
+        owner += [i] * len(datas)
+    try:
+        solved = solve_group(members, problems, _BATCH)
+    except AttenfitError:
+        for i, req in requests:
+            out[i] = _fit_alone(*req)
+        return
+    for i, _ in requests:
+        out[i] = [
+            (_model(p.member, p.start, fitted), ok, msg)
+            for p, o, (fitted, ok, msg) in zip(problems, owner, solved, strict=True)
+            if o == i
+        ]
+
+
+def fit_group(cls: type[Family], datas: Sequence[LightData], plans: Sequence[Plan]) -> Fitted:
+    """Fit `cls` to lights sharing one set of free parameters; (model, converged, message)."""
+    (res,) = fit_families([(cls, datas, plans)])
+    if isinstance(res, AttenfitError):
+        raise res
+    return res
+
+
+def _fit_alone(cls: type[Family], datas: Sequence[LightData], plans: Sequence[Plan]):
+    """`cls` fitted in a solve of its own (a family no group holds): results, or the error."""
+    try:
+        return _fit_alone_raising(cls, datas, plans)
+    except AttenfitError as exc:
+        return exc
+
+
+def _fit_alone_raising(
+    cls: type[Family], datas: Sequence[LightData], plans: Sequence[Plan]
+) -> Fitted:
+    free = plans[0][1]
+    starts = [p[0] for p in plans]
+    knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.knots_param is not None else {}
+    n = _bucket(max(len(x.d) for x in datas), 64)
+    b = _bucket(len(datas), 2)
+    # pad the batch to b problems with copies of the first light (their results are dropped)
+    rows = [*range(len(datas)), *([0] * (b - len(datas)))]
+    probs = _problems(cls, [datas[k] for k in rows], [plans[k] for k in rows], n)
+    D, T, W = (np.stack([getattr(p, a) for p in probs]) for a in ("d", "target", "weights"))
     starts = [starts[src] for src in rows]
     if cls.range_tie is not None:
-        fn = _TIED_FNS.setdefault(cls.name, _Tied(cls))
+        fn = tied_fn(cls)
         params = {"r": np.array([s["r"] for s in starts]), "R": np.array([s["R"] for s in starts])}
         with reuse_results():  # an unchanged scene asked again: no solve
             res = fit_many(
@@ -251,28 +302,37 @@ def _fit_falloff(x: LightData, curve: str) -> SpotFalloff:
     w = x.E_irr / x.denom
     frac = min(max(penumbra / umbra, 0.02), 0.98)
     fn = _FALLOFF_FNS[curve]
-    res = fit(
-        (fn, {"umbra": umbra, "frac": frac}, {"umbra": "positive", "frac": "unit"}),
-        x.theta,
-        profile,
-        loss="absolute",
-        weights=w,
-    )
+    with reuse_results():  # an unchanged scene asked again: no solve
+        res = fit(
+            (fn, {"umbra": umbra, "frac": frac}, {"umbra": "positive", "frac": "unit"}),
+            x.theta,
+            profile,
+            loss="absolute",
+            weights=w,
+        )
     u = float(res.params["umbra"])
     return SPOT_FALLOFFS[curve](umbra=u, penumbra=u * float(res.params["frac"]))
 
 
-def _falloff_fn(curve: str):
-    spot = spot_frostbite if curve == "frostbite" else spot_threejs
+class _Falloff:
+    """A spot falloff's profile at angles `theta` as a `(fn, params)` model of its umbra and
+    the penumbra's fraction of it: `fn(theta, {"umbra", "frac"})`."""
 
-    def fn(theta, p):
+    def __init__(self, curve: str):
+        self.curve = curve
+        self.spot = spot_frostbite if curve == "frostbite" else spot_threejs
+
+    def __call__(self, theta, p):
         u = p["umbra"]
-        return spot(jnp.cos(theta), u, u * p["frac"])
+        return self.spot(jnp.cos(theta), u, u * p["frac"])
 
-    return fn
+    def cache_key(self) -> str:
+        """What this model computes, for the fit stage's cache across processes (its
+        solves, and with `reuse_results` their outputs)."""
+        return f"scenes-falloff:{self.curve}"
 
 
-_FALLOFF_FNS = {c: _falloff_fn(c) for c in ("frostbite", "threejs")}
+_FALLOFF_FNS = {c: _Falloff(c) for c in ("frostbite", "threejs")}
 
 
 def spot_variants(

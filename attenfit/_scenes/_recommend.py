@@ -6,7 +6,8 @@
    each of the scene's lights at exactly the scene's receivers (no other radius, distance
    or angle is generated).
 2. **Fit every family the scene's constraints allow**, per light, in one `fit_many` solve
-   per family (lights grouped by whether they have a range). The residual of a receiver is
+   per shape of fit, families of the same structure together (`_family_solves`; lights
+   grouped by whether they have a range). The residual of a receiver is
    its judged error (below), so the least-squares fit aims at what is judged. Length
    parameters start at the light's radius; a light's `range` is pinned into the family's
    range parameter (`r_max`, `cutoff`, `range`; Madams' surface-distance `d_max = range - r`
@@ -59,7 +60,7 @@ from ._advice import Candidate, Recommendation, pct
 from ._light_fits import (
     LightData,
     SpotVariant,
-    fit_group,
+    fit_families,
     fit_plan,
     judged_errors,
     light_data,
@@ -189,7 +190,7 @@ def _judged_truth(
 def _fit_families(
     scene: Scene, datas: Sequence[LightData]
 ) -> tuple[dict[str, _Fitted], list[Candidate]]:
-    """Every candidate family fitted to every light (`_fit_family`): the fitted ones, and
+    """Every candidate family fitted to every light (`_family_requests`, in few solves): the fitted ones, and
     the candidates of those excluded or not fitted."""
     d_all = np.concatenate([x.d for x in datas])
     d_lo, d_hi = float(d_all.min()), float(d_all.max())
@@ -199,10 +200,30 @@ def _fit_families(
     fitted: dict[str, _Fitted] = {}
     candidates: list[Candidate] = []
     names = _candidate_names(scene)
-    with _progress.count(len(names), f"fitting {len(names)} families") as bar:
-        for name in names:
-            _fit_family(scene, name, datas, d_hi, knots, fitted, candidates)
-            bar.update()
+    _progress.stage(f"fitting {len(names)} families")
+    requests: list[tuple[str, list[int], Any]] = []
+    for name in names:
+        requests += _family_requests(scene, name, datas, d_hi, knots, candidates)
+    solved = fit_families([req for _, _, req in requests])
+    for name in dict.fromkeys(name for name, _, _ in requests):
+        results: list[Any] = [None] * len(datas)
+        error = None
+        for (nm, group, _), out in zip(requests, solved, strict=True):
+            if nm != name:
+                continue
+            if isinstance(out, AttenfitError):
+                error = error or out
+                continue
+            for k, r in zip(group, out, strict=True):
+                results[k] = r
+        if error is not None:
+            candidates.append(Candidate(name, "fail", f"could not be fitted: {error}"))
+            continue
+        fitted[name] = (
+            [r[0] for r in results],
+            [bool(r[1]) for r in results],
+            [r[2] for r in results],
+        )
     return fitted, candidates
 
 
@@ -351,40 +372,34 @@ def _angles(v: SpotVariant) -> tuple[dict[str, float] | None, ...]:
     )
 
 
-def _fit_family(
+def _family_requests(
     scene: Scene,
     name: str,
     datas: Sequence[LightData],
     d_hi: float,
     knots: tuple[float, ...],
-    fitted: dict[str, _Fitted],
     candidates: list[Candidate],
-) -> None:
-    """Fit family `name` to every light of the scene: into `fitted`, or a `Candidate` that
-    says why it was excluded or failed into `candidates`."""
+) -> list[tuple[str, list[int], Any]]:
+    """What fitting family `name` to every light takes: `(name, lights, request)` per set of
+    free parameters (`_light_fits.fit_families`), or none, with a `Candidate` that says
+    why it was excluded or failed in `candidates`."""
     cls = get_family(name)
     if scene.reach_zero_at_range and cls.window == "none":
         candidates.append(Candidate(name, "excluded", "no window: it cannot reach 0 at the range"))
-        return
+        return []
     try:
-        results: list[Any] = [None] * len(datas)
         plans = [fit_plan(cls, x, d_hi, knots) for x in datas]
-        pins = (scene.fixed or {}).get(name, {})
-        if pins:  # what the engine fixes is not fitted
-            plans = [({**v, **pins}, tuple(p for p in f if p not in pins)) for v, f in plans]
-        for free in dict.fromkeys(p[1] for p in plans):
-            group = [k for k, p in enumerate(plans) if p[1] == free]
-            out = fit_group(cls, [datas[k] for k in group], [plans[k] for k in group])
-            for k, r in zip(group, out, strict=True):
-                results[k] = r
     except AttenfitError as exc:
         candidates.append(Candidate(name, "fail", f"could not be fitted: {exc}"))
-        return
-    fitted[name] = (
-        [r[0] for r in results],
-        [bool(r[1]) for r in results],
-        [r[2] for r in results],
-    )
+        return []
+    pins = (scene.fixed or {}).get(name, {})
+    if pins:  # what the engine fixes is not fitted
+        plans = [({**v, **pins}, tuple(p for p in f if p not in pins)) for v, f in plans]
+    out = []
+    for free in dict.fromkeys(p[1] for p in plans):
+        group = [k for k, p in enumerate(plans) if p[1] == free]
+        out.append((name, group, (cls, [datas[k] for k in group], [plans[k] for k in group])))
+    return out
 
 
 def _precision_problem(model: Family, d: np.ndarray, f: np.ndarray, precision: str) -> str | None:

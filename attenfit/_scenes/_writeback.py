@@ -2,7 +2,9 @@
 
 * glTF (`OUT.gltf`): each `KHR_lights_punctual` light gets the chosen `range` (the extension's
   own property; the published range was one candidate of the choice, not a bound) and the
-  answer in `extras.attenfit` (family, parameters, errors, engine properties). Buffers and
+  answer in `extras.attenfit` (family, parameters, errors, engine properties). glTF has
+  no area light extension: an answer with an engine's own area light is recorded there,
+  with a note, and the light's entry is left as it is (never an invalid light). Buffers and
   image files are embedded as `data:` URIs so the copy stands alone wherever it is written;
   only files inside the scene's folder are read (`_refs`): a reference outside it is refused
   before anything is written. The rest of the JSON is kept as written.
@@ -10,7 +12,9 @@
   resolved, so the copy stands alone), with custom attributes in the `attenfit:` namespace
   on each light prim: `attenfit:family`, `attenfit:range`, `attenfit:error`,
   `attenfit:checkedError`, `attenfit:params:NAME`, `attenfit:engine` and
-  `attenfit:<engine>:PROPERTY`; lengths in the stage's units (`metersPerUnit`, recorded as
+  `attenfit:<engine>:PROPERTY` (an engine's own area light, `attenfit._scenes._engine_area`:
+  its `light_type` and size, range and intensity properties, as for a punctual light; a
+  vector property as a double array); lengths in the stage's units (`metersPerUnit`, recorded as
   `attenfit:metersPerUnit` and in each length's doc string), engine properties in the
   engine's.
 
@@ -114,9 +118,17 @@ def _gltf_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) 
         if not isinstance(answers, list):
             raise BadValueError(f"{where}.attenfit: is not a list; attenfit appends its answers")
         R = c.range.get("range") if c.range is not None else None
-        if R is not None and R > 0 and math.isfinite(R):
+        answer = {"node_light": c.name, **_answer(c, engine)}
+        if "light_type" in (c.properties or {}):
+            # an engine's own area light: KHR_lights_punctual has none (point, spot,
+            # directional only), so the light is left as it is and the answer only recorded
+            answer["note"] = (
+                f"{c.properties['light_type']} is {engine}'s own area light; glTF has no area "
+                "light extension, so this light's KHR_lights_punctual entry is unchanged"
+            )
+        elif R is not None and R > 0 and math.isfinite(R):
             d["range"] = float(R)  # the chosen range (the published one was a candidate)
-        answers.append({"node_light": c.name, **_answer(c, engine)})
+        answers.append(answer)
     return json.dumps(doc, indent=1) + "\n"
 
 
@@ -161,6 +173,10 @@ def _usd_text(imported: ImportedScene, choices: Sequence[LightChoice], engine) -
                     attr.SetDocumentation(_unit_doc(power, mpu))
             elif isinstance(value, str):
                 prim.CreateAttribute(name, Sdf.ValueTypeNames.String, custom=True).Set(value)
+            elif isinstance(value, list | tuple) and all(_is_num(v) for v in value):
+                # a vector property (Godot's AreaLight3D area_size): a double array
+                attr = prim.CreateAttribute(name, Sdf.ValueTypeNames.DoubleArray, custom=True)
+                attr.Set([float(v) for v in value])
 
         put("attenfit:metersPerUnit", mpu)
         powers = {"range": 1, "threshold": -2}
@@ -215,6 +231,10 @@ def _editable(stage, path: str):
         top.SetInstanceable(False)
         prim = stage.GetPrimAtPath(path)
     return prim if prim.IsValid() and not prim.IsInstanceProxy() else None
+
+
+def _is_num(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool)
 
 
 def _camel(key: str) -> str:
