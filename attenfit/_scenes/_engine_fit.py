@@ -66,7 +66,6 @@ def engine_verdict(
     case = Case(w, light, x, *_geometry(light, x), precision)
     props = dict(props)
     mapped = case.worst(props)
-    notes: list[str] = []
     tries = [props]
     if size_prop is not None:
         tries = [{**props, size_prop: 0.0}, {**props, size_prop: size_value}]
@@ -75,10 +74,24 @@ def engine_verdict(
         e = case.worst(p)
         if e < best_e or (e == best_e and p is tries[0]):
             best, best_e = p, e
+    kept = [(best, best_e)]
     if best_e > tolerance:
         p, e = search(case, best, size_value)
         if e < best_e:
-            best, best_e = p, e
+            kept.insert(0, (p, e))
+    verdicts = [_verdict(case, p, e, tolerance, mapped, size_prop) for p, e in kept]
+    if light.kind not in AREA_KINDS:
+        return verdicts[0]
+    # the engine's own area light, or a stand-in at the intensity that renders closest: the
+    # search ran at the file's intensity, so the unsearched mapping is rescaled too
+    area = [area_verdict(v, w, light, x, tolerance, precision) for v in verdicts]
+    return min(area, key=lambda v: v.error)
+
+
+def _verdict(case: Case, best, best_e: float, tolerance: float, mapped: float, size_prop):
+    """The verdict of the settings `best` (their largest error `best_e`), with its notes."""
+    w, light = case.w, case.light
+    notes: list[str] = []
     if size_prop is not None:
         used = float(best.get(size_prop, 0.0))
         notes.append(
@@ -99,7 +112,4 @@ def engine_verdict(
     if not math.isfinite(best_e):
         best_e = math.inf
     status = "pass" if best_e <= tolerance else "fail"
-    verdict = EngineVerdict(best, best_e, errs, status, mapped, tuple(notes))
-    if light.kind in AREA_KINDS:  # the engine's own area light, or a rescaled stand-in
-        verdict = area_verdict(verdict, w, light, x, tolerance, precision)
-    return verdict
+    return EngineVerdict(best, best_e, errs, status, mapped, tuple(notes))
