@@ -6,7 +6,10 @@ room.usda and room.glb with their side file (`answer_file`).
 
 Prints the Markdown table of docs/usd-gltf.md ("What the engine renders"). Each cell:
 claimed / engine-rendered worst case, "fail" where no settings of the engine bring the light
-within the scene's tolerance (the closest found given).
+within the scene's tolerance (the closest found given: the engine's best over every
+property it exposes for the light, `attenfit._scenes._engine_search`). Each scene's wall time
+per engine (answer and search; fits and ground truth are cached after a first run) and the
+load go to stderr.
 
 Run: `python -m benchmarks engines` (about ten minutes on 2 busy cores), or
 `python benchmarks/bench_engines.py --samples 512` for a quick look (the doc's table uses
@@ -16,7 +19,9 @@ the default receivers per light of a USD or glTF file).
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import time
 from pathlib import Path
 
 import jax
@@ -37,13 +42,15 @@ def _pct(x: float | None) -> str:
 
 
 def answers(path: Path, samples: int | None):
-    """(engine, FileAnswer) for every engine, for one example scene."""
+    """(engine, FileAnswer, wall seconds) for every engine, for one example scene."""
     for engine in ENGINES:
+        t = time.perf_counter()
         if path.suffix == ".toml":
-            yield engine, answer_scene(Scene.load(path), engine)
+            ans = answer_scene(Scene.load(path), engine)
         else:
             side = BLENDER / "room.side.toml"
-            yield engine, answer_file(path, side=side, engine=engine, samples=samples)
+            ans = answer_file(path, side=side, engine=engine, samples=samples)
+        yield engine, ans, time.perf_counter() - t
 
 
 def table(samples: int | None = None) -> str:
@@ -56,12 +63,13 @@ def table(samples: int | None = None) -> str:
     ]
     for path in paths:
         rows: dict[str, list[str]] = {}
-        for engine, ans in answers(path, samples):
+        for engine, ans, wall in answers(path, samples):
             for c in ans.choices:
                 key = f"| {path.name} | {c.name} | {c.file_kind} |"
                 cell = f"{_pct(c.checked_error)} / {_pct(c.engine_error)}"
                 rows.setdefault(key, []).append(cell + ("" if c.status == "pass" else " fail"))
-            print(f"  {path.name}: {engine} done", file=sys.stderr, flush=True)
+            load = os.getloadavg()[0]
+            print(f"  {path.name}: {engine} {wall:.1f} s (load {load:.1f})", file=sys.stderr)
         lines += [f"{k} {' | '.join(v)} |" for k, v in rows.items()]
     return "\n".join(lines)
 

@@ -492,7 +492,6 @@ def example_answers():
     ("name", "engine", "light_type"),
     [
         ("panel", "unreal", "RectLight"),
-        ("panel", "threejs", "RectAreaLight"),
         ("panel", "godot", "AreaLight3D"),
         ("batten", "unreal", "PointLight"),
     ],
@@ -506,6 +505,17 @@ def test_example_answered_with_the_engines_own_light(example_answers, name, engi
     assert c.engine_error == pytest.approx(rendered, rel=1e-6, abs=1e-12)
     assert (c.status == "pass") == (rendered <= ans.imported.scene.tolerance)
     assert any(light_type in n for n in c.engine_notes)
+
+
+def test_threejs_panel_takes_the_closer_of_its_area_light_and_stand_in(example_answers):
+    """three.js's own RectAreaLight (identity LTC) renders the panel about 22% off at best;
+    the spot stand-in of the joint engine search (`_engine_search`) renders it closer, and
+    `area_verdict` keeps the closer of the two."""
+    (c,) = example_answers["panel", "threejs"].choices
+    assert "light_type" not in c.properties
+    note = next(n for n in c.engine_notes if "RectAreaLight renders" in n)
+    native = float(note.split("renders ")[1].split("%")[0]) / 100
+    assert c.engine_error <= native
 
 
 @pytest.mark.parametrize("engine", ["threejs", "godot", "filament"])

@@ -66,7 +66,10 @@ def _check_claims(engine: str, answers) -> int:
     for scene_name, ans in answers:
         for c, rendered in engine_rendered_errors(ans.imported.scene, ans.choices, engine):
             where = f"{scene_name}: {c.name}: {engine}"
-            assert c.engine_error == pytest.approx(rendered, rel=0.05), where
+            # abs: where the engine's best renders the light almost exactly (Filament's glTF
+            # spot, 1e-5), the cone's float32 offset (the engine's, not the transcription's:
+            # 1e-6 of the cone's ramp) is 1e-5 to 1e-4 of the error at its dimmest receivers
+            assert c.engine_error == pytest.approx(rendered, rel=0.05, abs=1e-4), where
             if c.status == "pass":
                 assert rendered <= 1.05 * ans.imported.scene.tolerance, where
             n += 1

@@ -82,6 +82,12 @@ class EngineWitness(abc.ABC):
     cone_log: ClassVar[frozenset[str]] = frozenset()
     #: the cone property that sets the cone's outer edge (past it the cone is 0)
     cone_outer: ClassVar[str | None] = None
+    #: the other light properties a fit of the engine's settings may move (attenfit.
+    #: _scenes._engine_search), each `(name, role, unit per metre, low, high)`: role "range"
+    #: (the window's range), "decay" (a distance exponent), "scale" (a brightness factor) or
+    #: "size" (a light size in the diffuse term); low and high are the engine's own bounds
+    #: (inf: none). A property missing from an answer's properties is not moved.
+    search_props: ClassVar[tuple[tuple[str, str, float, float, float], ...]] = ()
     #: the light's intensity property, and how many of its units make one candela: an
     #: answer that states it (a tube's point light, `attenfit._scenes._engine_area`) is
     #: rendered at that intensity, else at the scene's (`engine_receiver_errors`)
@@ -157,6 +163,16 @@ class GodotWitness(EngineWitness):
     cone_props = (("spot_angle", 0.1, 180.0), ("spot_angle_attenuation", 0.01, 50.0))
     cone_log = frozenset({"spot_angle_attenuation"})
     cone_outer = "spot_angle"
+    # OmniLight3D / SpotLight3D property hints (scene/3d/light_3d.cpp _bind_methods):
+    # *_attenuation "-10,10,or_greater,or_less", light_size "0,1,or_greater"; ranges
+    # floored at 0.001 (light_storage.cpp)
+    search_props = (
+        ("omni_range", "range", 1.0, 0.001, math.inf),
+        ("spot_range", "range", 1.0, 0.001, math.inf),
+        ("omni_attenuation", "decay", 1.0, -10.0, 10.0),
+        ("spot_attenuation", "decay", 1.0, -10.0, 10.0),
+        ("light_size", "size", 1.0, 0.0, math.inf),
+    )
     # Light3D.light_energy; attenfit reads it as the intensity (its omni's E = energy
     # attenuation n.l, the convention of every Godot answer here)
     intensity_prop = "light_energy"
@@ -204,6 +220,9 @@ class ThreeJSWitness(EngineWitness):
     cone_props = (("angle", 1e-3, 0.5 * math.pi), ("penumbra", 0.0, 1.0))
     cone_outer = "angle"
     range_prop = "distance"
+    # PointLight / SpotLight `distance` (0: no cutoff) and `decay` (three.js states no
+    # bounds: Godot's editor range is taken)
+    search_props = (("distance", "range", 1.0, 0.0, math.inf), ("decay", "decay", 1.0, -10.0, 10.0))
 
     @classmethod
     def distance(cls, d, props):
@@ -242,6 +261,15 @@ class UnrealWitness(EngineWitness):
     cone_props = (("InnerConeAngle", 0.0, 89.0), ("OuterConeAngle", 0.0, 90.0))
     cone_outer = "OuterConeAngle"
     range_prop = "AttenuationRadius"
+    # ULocalLightComponent AttenuationRadius and SourceRadius in cm; UPointLightComponent
+    # LightFalloffExponent meta (UIMin 2, UIMax 16); intensity_scale: the exponent mode's
+    # Intensity (a brightness scale, no unit) relative to the light's
+    search_props = (
+        ("AttenuationRadius", "range", 100.0, 0.0, math.inf),
+        ("LightFalloffExponent", "decay", 1.0, 2.0, 16.0),
+        ("intensity_scale", "scale", 1.0, 0.0, math.inf),
+        ("SourceRadius", "size", 100.0, 0.0, math.inf),
+    )
     # ULightComponent Intensity with IntensityUnits = Candelas (PointLightComponent.cpp
     # ComputeLightBrightness: x 100 x 100 for its centimetres, undone by the 1/d^2 in cm)
     intensity_prop = "Intensity"
@@ -298,6 +326,8 @@ class _ScaleOffsetCone(EngineWitness):
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
+        if "range_prop" in cls.__dict__:  # the window's range, no bound but > 0
+            cls.search_props = ((str(cls.range_prop), "range", 1.0, 0.0, math.inf),)
         if "cone_props" not in cls.__dict__:
             cls.cone_props = tuple(
                 (n, 0.0, 0.5 * math.pi) for n in (cls.cone_inner, cls.cone_outer)
