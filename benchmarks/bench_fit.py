@@ -10,7 +10,9 @@ eq. 7), on 256 distances d = r (0.05 + 20 x), x uniform in [0, 1].
   Python loop of scipy fits;
 - compile time of `fit` per (family, solver): first call minus a warm call;
 - every parameterised family, 1,000 fits each to lights it does not represent exactly,
-  against scipy's loop with exact Jacobians (`benchmarks/fit_families.py`).
+  against scipy's loop with exact Jacobians (`benchmarks/fit_families.py`), and where each
+  batch's time goes (start scan, first round, straggler rounds); `python -m benchmarks fit
+  --families frostbite_window,spline --rounds 5` runs only those families' rows.
 
 Both sides start from the same point (kc = r^2/2, kl = 0.1 r, kq = 1) and use the same
 tolerances (1e-8: scipy's ftol = xtol = gtol, attenfit's rtol = atol); the table reports
@@ -220,13 +222,17 @@ def bench_compile() -> None:
         )
 
 
-def main() -> None:
+def main(options: list[str] | None = None) -> None:
+    """Every table; with `--families a,b` only those families' batch table (options:
+    `fit_families.parse_options`: `--rounds N`, `--no-split`)."""
     from . import fit_families
 
-    bench_single()
-    bench_batch()
-    bench_compile()
-    fit_families.main()
+    chosen = fit_families.parse_options(options or [])
+    if chosen["families"] is None:
+        bench_single()
+        bench_batch()
+        bench_compile()
+    fit_families.main(**chosen)
 
 
 if __name__ == "__main__":

@@ -26,6 +26,7 @@ above the better side's by more than `MARGIN` (relative), or is not finite.
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 from collections.abc import Callable
@@ -192,8 +193,21 @@ def _in_turns(fns: list[Callable], rounds: int) -> tuple[list, list[float], list
     return outs, [statistics.median(w) for w in wall], [statistics.median(c) for c in cpu]
 
 
-def bench_family(name: str, data: dict[str, np.ndarray], rounds: int = 3) -> dict[str, Any]:
-    """One family's row: times, ratios, steps, failures and final losses of both sides."""
+#: Steps of the batch's first round (`attenfit._fit._compiled._FIRST_ROUND`): a fit capped
+#: there is the first round alone, so the full fit's extra time is its straggler rounds.
+FIRST_ROUND = 16
+
+
+def bench_family(
+    name: str, data: dict[str, np.ndarray], rounds: int = 3, split: bool = True
+) -> dict[str, Any]:
+    """One family's row: times, ratios, steps, failures and final losses of both sides.
+
+    `split`: also time, in the same turns, what the batch's time is made of: the start
+    scan (a one-step fit with the data-derived starts, less one without them: `guess`), the
+    first round (a fit capped at `FIRST_ROUND` steps, less the scan) and the straggler
+    rounds (the full fit less the capped one).
+    """
     cls = af.get_family(name)
     d, t = data["d"], data["t"]
     batch = len(d)
@@ -203,18 +217,30 @@ def bench_family(name: str, data: dict[str, np.ndarray], rounds: int = 3) -> dic
     sp = ScipySide(cls, d, t, fixed)
     flat0 = np.concatenate([p0[p].reshape(batch, -1) for p in cls.default_free], axis=1)
 
-    def run_af():
-        return af.fit_many(model, d, t, rtol=TOL, atol=TOL)
+    def run_af(max_steps=256, guess=True):
+        return af.fit_many(model, d, t, rtol=TOL, atol=TOL, max_steps=max_steps, guess=guess)
 
     t0 = time.perf_counter()
     run_af()
     first = time.perf_counter() - t0
-    (res, sols), wall, cpu = _in_turns([run_af, lambda: sp.loop(flat0)], rounds)
+    fns = [run_af, lambda: sp.loop(flat0)]
+    if split:
+        fns += [
+            lambda: run_af(1, True),
+            lambda: run_af(1, False),
+            lambda: run_af(FIRST_ROUND),
+        ]
+        for fn in fns[2:]:
+            fn()  # compiled outside the timing
+    load = os.getloadavg()[0]
+    outs, wall, cpu = _in_turns(fns, rounds)
+    res, sols = outs[0], outs[1]
+    load = (load + os.getloadavg()[0]) / 2
     p_af = np.concatenate([res.params[p].reshape(batch, -1) for p in cls.default_free], axis=1)
     loss_af, loss_sp = sp.losses(p_af), sp.losses(sp.params(sols))
     best = np.minimum(loss_af, loss_sp)
     worse = (loss_af - loss_sp) / np.where(loss_sp > 0, loss_sp, 1)
-    return {
+    row = {
         "family": name,
         "k": flat0.shape[1],
         "af_ms": wall[0] * 1e3,
@@ -222,13 +248,19 @@ def bench_family(name: str, data: dict[str, np.ndarray], rounds: int = 3) -> dic
         "ratio": wall[1] / wall[0],
         "ratio_cpu": cpu[1] / cpu[0],
         "first_s": first,
+        "load": load,
         "af_steps": (float(np.median(res.steps)), int(res.steps.max())),
+        "stragglers": int(np.sum(res.steps > FIRST_ROUND)),
         "sp_nfev": (float(np.median([s.nfev for s in sols])), max(s.nfev for s in sols)),
         "af_fail": int(np.sum(~(loss_af <= best * (1 + MARGIN)))),
         "sp_fail": int(np.sum(~(loss_sp <= best * (1 + MARGIN)))),
         "af_converged": int(res.converged.sum()),
         "loss_rel": (float(np.median(worse)), float(np.max(worse)), float(np.min(worse))),
     }
+    if split:
+        scan = wall[2] - wall[3]
+        row["split_ms"] = (scan * 1e3, (wall[4] - scan) * 1e3, (wall[0] - wall[4]) * 1e3)
+    return row
 
 
 def print_row(row: dict[str, Any]) -> None:
@@ -237,29 +269,69 @@ def print_row(row: dict[str, Any]) -> None:
         f"  {row['family']:17s} {row['k']:2d} {row['af_ms']:8.1f} {row['sp_ms']:9.1f} "
         f"{row['ratio']:6.1f} {row['ratio_cpu']:6.1f}  "
         f"{row['af_steps'][0]:4.0f}/{row['af_steps'][1]:<4d} {row['sp_nfev'][0]:4.0f}/{row['sp_nfev'][1]:<4d} "
-        f"{row['af_fail']:4d} {row['sp_fail']:4d}  {lo:+.1e}..{hi:+.1e}",
+        f"{row['af_fail']:4d} {row['sp_fail']:4d}  {lo:+.1e}..{hi:+.1e}  {row['load']:4.1f}",
         flush=True,
     )
 
 
-def main(families: list[str] | None = None, rounds: int = 3) -> list[dict[str, Any]]:
+def print_split(row: dict[str, Any]) -> None:
+    scan, solve, rest = row["split_ms"]
+    print(
+        f"  {row['family']:17s} {row['af_ms']:8.1f} {scan:8.1f} {solve:9.1f} {rest:9.1f} "
+        f"{row['stragglers']:6d}  {row['sp_ms']:9.1f}",
+        flush=True,
+    )
+
+
+def parse_options(options: list[str]) -> dict[str, Any]:
+    """`--families a,b`, `--rounds N` and `--no-split` (see `main`)."""
+    out: dict[str, Any] = {"families": None, "rounds": 3, "split": True}
+    it = iter(options)
+    for opt in it:
+        if opt == "--families":
+            out["families"] = [n for n in next(it, "").split(",") if n]
+        elif opt == "--rounds":
+            out["rounds"] = int(next(it, "3"))
+        elif opt == "--no-split":
+            out["split"] = False
+        else:
+            raise SystemExit(f"fit_families: unknown option {opt!r}")
+    return out
+
+
+def main(
+    families: list[str] | None = None, rounds: int = 3, split: bool = True
+) -> list[dict[str, Any]]:
+    """Every parameterised family's row (or those of `families`), `rounds` rounds in turns;
+    `split`: and where each batch's time goes (`bench_family`)."""
     data = problems()
     names = families or [n for n in af.list_families() if af.get_family(n).default_free]
     print(
         f"\n{BATCH} fits per family (half a disk over a floor, half a sphere sunk into it; "
         f"{N} samples, relative loss, tol {TOL:g}), one fit_many call against a scipy "
-        f"least_squares(lm) loop, {rounds} rounds in turns. Steps: attenfit's solver steps, "
-        f"scipy's nfev (median/max). Failures: final loss > (1 + {MARGIN:g}) x the better "
-        "side's. Final loss: (attenfit - scipy) / scipy, min..max."
+        f"least_squares(lm) loop, {rounds} rounds in turns (medians). Steps: attenfit's solver "
+        f"steps, scipy's nfev (median/max). Failures: final loss > (1 + {MARGIN:g}) x the "
+        "better side's. Final loss: (attenfit - scipy) / scipy, min..max. Load: the 1-minute "
+        f"load average ({os.cpu_count()} cores)."
     )
     print(
         "  family             k   af ms  scipy ms  ratio    cpu  af steps  sp nfev  "
-        "af-fail sp-fail  final loss"
+        "af-fail sp-fail  final loss          load"
     )
     rows = []
     for name in names:
-        rows.append(bench_family(name, data, rounds))
+        rows.append(bench_family(name, data, rounds, split))
         print_row(rows[-1])
+    if split:
+        print(
+            f"\nwhere the batch's time goes (wall medians, ms): the start scan (guess on less "
+            f"off, one step), the first round ({FIRST_ROUND} steps at most, less the scan) and the "
+            f"straggler rounds (the rest), with the problems that took more than {FIRST_ROUND} "
+            "steps"
+        )
+        print("  family              total     scan     solve  stragglers  (count)  scipy")
+        for row in rows:
+            print_split(row)
     return rows
 
 
@@ -269,4 +341,4 @@ if __name__ == "__main__":
     import jax
 
     jax.config.update("jax_enable_x64", True)
-    main(sys.argv[1:] or None)
+    main(**parse_options(sys.argv[1:]))

@@ -84,6 +84,10 @@ class Family(Model):
     #: The parameter holding `ln f` at the static `knots` of an authored curve (`spline`):
     #: no published values; a light's start is a facing disk's curve there.
     knots_param: ClassVar[str | None] = None
+    #: The parameter p of a clamped distance, f(d) = g(d) / max(d, p)^2 with g free of p
+    #: (RTR4 eq. 5.13's clamp): a fit that frees it alone starts at its exact optimum
+    #: (`attenfit._fit._guess.clamp_candidate`); None: no such parameter.
+    clamp_param: ClassVar[str | None] = None
 
     @abc.abstractmethod
     def __call__(self, d: Float[ArrayLike, "*shape"]) -> Float[Array, "*shape"]:
@@ -176,6 +180,10 @@ def _check_family_facts(cls: type[Family]) -> None:
             )
     for param in cls.at_radius:
         cls.constraint(param)  # raises on an unknown name
+    if cls.clamp_param is not None and cls.constraint(cls.clamp_param) != "positive":
+        raise BadValueError(
+            f"family {cls.name!r}: clamp_param {cls.clamp_param!r} must be a positive parameter"
+        )
 
 
 def family_from_function(
@@ -195,7 +203,7 @@ def family_from_function(
     `defaults` gives the parameters (their order and default values); the remaining class
     variables (`constraints`, `singular`, `range_param`, `window`, `monotone`,
     `tends_to_inverse_square`, `length_params`, `units`, `scale_covariant`, `range_tie`,
-    `at_radius`, `inverse_linear`, `knots_param`) may be passed as keywords. `default_free`
+    `at_radius`, `inverse_linear`, `knots_param`, `clamp_param`) may be passed as keywords. `default_free`
     defaults to every parameter. `fn` receives `d` and the parameters as given (call
     `attenfit.parts.promote` inside it to share one dtype). `shader_form(self) ->
     ShaderForm` is the class's shader form (default: none, `no_shader_form`). With
@@ -206,7 +214,7 @@ def family_from_function(
     allowed = {
         "constraints", "singular", "range_param", "window", "monotone",
         "tends_to_inverse_square", "length_params", "units", "scale_covariant", "range_tie",
-        "at_radius", "inverse_linear", "knots_param",
+        "at_radius", "inverse_linear", "knots_param", "clamp_param",
     }  # fmt: skip
     unknown = sorted(set(properties) - allowed)
     if unknown:

@@ -56,6 +56,7 @@ class MadamsSphere(Family):
     default_free = ("r",)
     length_params = ("r",)
     at_radius: ClassVar = {"r": (1.0, 1)}  # as published: the light's radius
+    clamp_param = "r"  # f = 1 / max(d, r)^2
     tends_to_inverse_square = True
     scale_covariant = True
 

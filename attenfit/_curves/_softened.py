@@ -105,6 +105,7 @@ class Clamped(Family):
     default_free = ("r_min",)
     length_params = ("r_min",)
     at_radius: ClassVar = {"r_min": (1.0, 1)}  # "the radius of the physical object" (RTR4)
+    clamp_param = "r_min"  # f = 1 / max(d, r_min)^2
     tends_to_inverse_square = True
     scale_covariant = True
 

@@ -94,6 +94,7 @@ class FrostbiteWindow(Family):
     source = "Lagarde & de Rousiers 2014, Moving Frostbite to PBR, eq. 26 and getDistanceAtt; Filament light_punctual.fs"
     default_free = ("r_min",)
     length_params = ("r_min", "r_max")
+    clamp_param = "r_min"  # f = window(d) / max(d, r_min)^2
     range_param = "r_max"
     window = "smooth"
     scale_covariant = True
@@ -191,6 +192,7 @@ class CryEngineLinear(Family):
     default_free = ("r_min",)
     length_params = ("r_min", "r_max")
     at_radius: ClassVar = {"r_min": (1.0, 1)}  # the bulb radius (fAttenuationBulbSize)
+    clamp_param = "r_min"  # f = fade(d)^2 / max(d, r_min)^2
     range_param = "r_max"
     window = "hard"
     scale_covariant = True

@@ -13,7 +13,7 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array
 
-from ._guess import linear_candidate, scale_candidates
+from ._guess import clamp_candidate, in_order, linear_candidate, scale_candidates
 from ._reparam import by_kind, param_slope, to_internal, to_param
 from ._solvers import (
     LevenbergMarquardt,
@@ -97,6 +97,12 @@ class _Plan:
         self.linear_coord = np.array([k in ("nonnegative", "real") for k in self.flat_kinds])
         self.nonneg = [j for j, kind in enumerate(self.flat_kinds) if kind == "nonnegative"]
         self.is_lm = isinstance(solver_obj, LevenbergMarquardt)
+        # a clamped distance's parameter (`Family.clamp_param`), free and scalar, under a
+        # loss affine in the model's values: its exact start (`_guess.clamp_candidate`)
+        clamp = spec.clamp_param
+        usable = clamp in free and self.shapes[clamp] == () and kinds[clamp] == "positive"
+        self.clamp = clamp if guess and usable and loss != "log" and not spec.inputs else None
+        self.clamp_alone = self.clamp is not None and tuple(free) == (clamp,)
 
     def split(self, vec, values):
         """`values` with the free parameters read from the parameter vector `vec`."""
@@ -188,9 +194,9 @@ class _Passes:
         return jnp.where(jnp.isfinite(c), c, jnp.inf), sq_err, max_err
 
 
-def _start(plan: _Plan, ps: _Passes):
-    """The start: the best of the caller's values and the data-derived candidates
-    (`_guess`), and its loss."""
+def _scan_start(plan: _Plan, ps: _Passes, extra=None):
+    """The best of the caller's values, the data-derived candidates (`_guess`) and `extra`
+    (the free parameters' values, a row each), and its loss."""
     values, d, n = ps.values, ps.d, ps.d.shape[-1]
     free, where = plan.free, plan.where
     # the candidates, as blocks of rows (see `_Plan.to_u`)
@@ -213,6 +219,8 @@ def _start(plan: _Plan, ps: _Passes):
         )
         if lin is not None:
             cands.append({p: lin[p][None] for p in free})
+    if extra is not None:
+        cands.append(extra)
     us = plan.to_u(cands)
     stride = n // _SCAN_SAMPLES
     scan = ps if us.shape[0] <= 3 or stride < 2 else ps.every(stride)
@@ -236,11 +244,52 @@ def _start(plan: _Plan, ps: _Passes):
     return pair[take], costs[take]
 
 
-def _solve(plan: _Plan, values, d, target, weights, inv_target):
+def _start(plan: _Plan, ps: _Passes, all_in_order):
+    """The start and its loss, and whether it is known optimal (the solve then ends there).
+
+    A family with a free clamp parameter (`_Plan.clamp`) adds its exact optimum given the
+    other parameters' starts (`_guess.clamp_candidate`); freed alone, with the samples in
+    order of distance (either way), that is the optimum: the start is then the better of it and the
+    caller's values, without the scan, and known optimal in float64 (in float32 the loss
+    of the intervals it compares is rounded at 1e-5 of the sum of squares, so the solver
+    polishes it). `all_in_order`: every problem of the batch has its samples in order (a
+    branch on the whole batch, which skips the scan where none needs it; each problem's
+    start depends on its own samples only).
+    """
+    free, values = plan.free, ps.values
+    no = jnp.zeros((), bool)
+    if plan.clamp is None:
+        return (*_scan_start(plan, ps), no)
+    caller = {p: values[p][None] for p in free}
+    f0 = ps.model_at(plan.to_u([caller])[0])
+    p_c, ordered = clamp_candidate(ps.d, f0, values[plan.clamp], ps.residual)
+    clamped = {**caller, plan.clamp: p_c[None]}
+    if not plan.clamp_alone:
+        return (*_scan_start(plan, ps, clamped), no)
+    exact64 = ps.d.dtype == jnp.float64
+
+    def exact():
+        r0 = ps.residual(f0)
+        (sq,) = reduce_samples([r0 * r0])
+        c0 = jnp.where(jnp.isfinite(sq), 0.5 * sq, jnp.inf)
+        us = plan.to_u([caller, clamped])
+        c1 = ps.losses(us[1:])[0]
+        take = c1 <= c0
+        return jnp.where(take, us[1], us[0]), jnp.minimum(c0, c1), take & ordered & exact64
+
+    def mixed():
+        u_e, c_e, known = exact()
+        u_s, c_s = _scan_start(plan, ps)
+        return jnp.where(ordered, u_e, u_s), jnp.where(ordered, c_e, c_s), known
+
+    return jax.lax.cond(all_in_order, exact, mixed)
+
+
+def _solve(plan: _Plan, values, d, target, weights, inv_target, all_in_order=True):
     """The optimistix solve of one problem from its start: what `_finish` reads."""
     dtype, n = d.dtype, d.shape[-1]
     ps = _Passes(plan, values, d, target, weights, inv_target)
-    u0, start_loss = _start(plan, ps)
+    u0, start_loss, known = _start(plan, ps, all_in_order)
     # The solver moves z = u / scale: nonnegative and real coordinates are scaled by
     # their start's magnitude, so a problem and its rescaled copy (another radius) take
     # the same steps; exp and sigmoid coordinates are scale-free already.
@@ -254,6 +303,9 @@ def _solve(plan: _Plan, values, d, target, weights, inv_target):
     # the gradient's direction are noise
     w_max = 1 if weights is None else jnp.max(weights)
     exact_loss = 0.5 * n * (64 * jnp.finfo(dtype).eps * w_max) ** 2
+    # ...or a start known optimal (`_start`): the solve ends there, its rounding allowed
+    known_loss = start_loss * (1 + 1024 * jnp.finfo(dtype).eps)
+    exact_loss = jnp.where(known, jnp.maximum(exact_loss, known_loss), exact_loss)
     options = {"exact_loss": exact_loss} if plan.is_lm else {}
     sol = optx.least_squares(
         res_z, plan.solver_obj, u0 / scale, None, options, max_steps=plan.max_steps, throw=False
@@ -430,7 +482,10 @@ def build_problem(spec: Spec, free, loss, solver_obj, max_steps, guess, rtol, at
         would evaluate both sides for every problem).
         """
         inv_target = each(_inverse)(target)
-        mid = each(functools.partial(_solve, plan))(values, d, target, weights, inv_target)
+        # every problem's samples in order of distance (`_start`; a family's d only)
+        ordered = True if plan.clamp is None else jnp.all(jnp.logical_or(*in_order(d)))
+        solve = functools.partial(_solve, plan, all_in_order=ordered)
+        mid = each(solve)(values, d, target, weights, inv_target)
 
         def fin(try_zero):
             return lambda: each(functools.partial(_finish, plan, try_zero=try_zero))(

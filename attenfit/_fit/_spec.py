@@ -49,6 +49,8 @@ class Spec:
     input_names: tuple[str, ...] = ()
     #: `1/f` linear in some parameters (`Model.inverse_linear`): the linear start
     inverse_linear: Any = dataclasses.field(default=None, compare=False)
+    #: a family's clamped-distance parameter (`Family.clamp_param`): the exact start
+    clamp_param: str | None = None
 
 
 def _model_spec(model: Model, batched: bool) -> tuple[Spec, dict[str, np.ndarray]]:
@@ -95,6 +97,7 @@ def _new_model_spec(model: Model, treedef: Any) -> Spec:
         inputs=cls.inputs,
         input_names=tuple(getattr(cls, "input_names", ())) if cls.inputs else (),
         inverse_linear=cls.inverse_linear,
+        clamp_param=getattr(cls, "clamp_param", None),
     )
     return spec
 
