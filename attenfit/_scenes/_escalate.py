@@ -385,16 +385,16 @@ class AreaAnswer:
                 parts.append(f"{who}: no area model meets it either{near}")
         parts += [f"{self._light(i)}: not escalated ({why})" for i, why in self.skipped]
         rest = len(self.kinds) - len(self.need)
+        others = "the other light" if rest == 1 else f"the other {rest} lights"
         if self.others is not None:
             o = self.others
             parts.append(
-                f"the other {rest} lights keep {o.label} (max error {pct(self.others_error)} <= "
-                f"tolerance {pct(self.tolerance)}, shader cost {o.shader_cost:g})"
+                f"{others} keep{'s' if rest == 1 else ''} {o.label} (max error "
+                f"{pct(self.others_error)} <= tolerance {pct(self.tolerance)}, shader cost "
+                f"{o.shader_cost:g})"
             )
         elif rest:
-            parts.append(
-                f"no one family meets the other {rest} lights together (see each light's answer)"
-            )
+            parts.append(f"no one family meets {others} together (see each light's answer)")
         return "; ".join(parts)
 
     def to_dict(self) -> dict[str, Any]:
