@@ -179,18 +179,21 @@ def _usda(path: Path, kind: str, attrs: list[str], z: float) -> Path:
     return path
 
 
+def _one_light(tmp_path: Path, kind: str, size1: str, size2: str, z: float, samples: int):
+    """A USD file of one light of `kind` (its two sizes `name = value`, intensity 10) at
+    (0, 0, z) over the floor, answered: (the answer, the light's choice)."""
+    attrs = [f"float inputs:{size1}", f"float inputs:{size2}", "float inputs:intensity = 10"]
+    path = _usda(tmp_path / f"{kind}.usda", kind, attrs, z)
+    ans = answer_file(path, samples=samples, notice=_quiet)
+    (c,) = ans.choices
+    return ans, c
+
+
 def test_a_tube_in_usd_is_escalated_likewise(tmp_path):
     """A 1.2 m CylinderLight (UsdLux: its axis along X, no end caps) 0.6 m over a floor as
     long as it: no curve meets it (a receiver under an end and one beside the middle at the
     same distance differ), a tube's area model does, on a dense grid too."""
-    path = _usda(
-        tmp_path / "tube.usda",
-        "CylinderLight",
-        ["float inputs:length = 1.2", "float inputs:radius = 0.02", "float inputs:intensity = 10"],
-        0.6,
-    )
-    ans = answer_file(path, samples=512, notice=_quiet)
-    (c,) = ans.choices
+    ans, c = _one_light(tmp_path, "CylinderLight", "length = 1.2", "radius = 0.02", 0.6, 512)
     tol = ans.imported.scene.tolerance
     assert c.file_kind == "CylinderLight" and c.status == "fail"
     w = c.area_model
@@ -207,14 +210,7 @@ def test_a_tube_in_usd_is_escalated_likewise(tmp_path):
 def test_a_scene_a_curve_meets_is_not_escalated(tmp_path):
     """A 5 cm square RectLight 3 m over the same floor: a distance curve (with the point
     light's emitter cosine) meets it, and no area model is judged."""
-    path = _usda(
-        tmp_path / "small.usda",
-        "RectLight",
-        ["float inputs:width = 0.05", "float inputs:height = 0.05", "float inputs:intensity = 10"],
-        3.0,
-    )
-    ans = answer_file(path, samples=256, notice=_quiet)
-    (c,) = ans.choices
+    ans, c = _one_light(tmp_path, "RectLight", "width = 0.05", "height = 0.05", 3.0, 256)
     assert c.status == "pass" and c.area is None and c.area_model is None
     assert ans.recommendation.winner is not None and ans.recommendation.area is None
     assert "area model" not in ans.summary() and "area model" not in ans.recommendation.summary()

@@ -256,10 +256,8 @@ def escalate(
     winner = passing[0] if passing else None
     closest = ranking.closest.item if ranking.closest is not None else None
     shaders = _shaders(winner, truths) if winner else {}
-    return AreaEscalation(
-        why, (*passing, *failing), winner, closest, label, shaders, float(scene.tolerance),
-        tuple(t.light for t in truths),
-    )  # fmt: skip
+    lights, tol = tuple(t.light for t in truths), float(scene.tolerance)
+    return AreaEscalation(why, (*passing, *failing), winner, closest, label, shaders, tol, lights)
 
 
 def _variants(
