@@ -99,8 +99,8 @@ def test_the_report_writes_the_section_and_its_figures(tmp_path):
 def test_escalation_picks_the_cheapest_area_model_and_says_why():
     scene = Scene.load(EXAMPLES / "downlight.toml")
     rec = attenfit.recommend(dataclasses.replace(scene, families=("inverse_square", "disk_facing")))
-    assert rec.winner is None and rec.area is not None
-    area = rec.area
+    assert rec.winner is None and rec.area is not None and rec.area.need == (0,)
+    area = rec.area.for_light(0)  # the scene's one light, escalated
     assert area.winner is not None and area.winner.model == "vector_disk"
     assert area.winner.error <= rec.tolerance
     # the exact disk model: exact where the disk is above the horizon, its sphere cap on the
@@ -120,7 +120,7 @@ def test_escalation_picks_the_cheapest_area_model_and_says_why():
     # nothing meets a tolerance below rounding: says so and names the closest
     tight = dataclasses.replace(scene, families=("inverse_square",), tolerance=1e-15)
     rec2 = attenfit.recommend(tight)
-    assert rec2.area is not None and rec2.area.winner is None
+    assert rec2.area is not None and rec2.area.for_light(0).winner is None
     assert "no family meets the tolerance" in rec2.summary()
     assert "no area model meets it either" in rec2.summary()
     assert "closest: the area model clipped_disk" in rec2.summary()  # exact but for rounding

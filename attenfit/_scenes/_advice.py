@@ -7,7 +7,7 @@ import dataclasses
 import json
 import math
 import os
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -55,15 +55,17 @@ class Candidate:
         """The family, with its spot falloff if any."""
         return self.family if self.directional is None else f"{self.family} + {self.directional}"
 
-    def contender(self, light: int | None = None) -> Contender[Candidate]:
+    def contender(self, light: int | Sequence[int] | None = None) -> Contender[Candidate]:
         """This candidate for `attenfit._judge.rank`: over every light (`light` None, allowed
-        when its status is "pass"), or at one light (its error there; allowed unless it is
-        excluded or failed for a reason other than an error: a precision failure, a
-        non-finite value, a broken constraint)."""
+        when its status is "pass"), or at one light or several (its largest error there;
+        allowed unless it is excluded or failed for a reason other than an error: a
+        precision failure, a non-finite value, a broken constraint)."""
         if light is None:
             error, allowed = self.error, self.status == "pass"
         else:
-            error = self.error_by_light[light] if light < len(self.error_by_light) else None
+            lights = [light] if isinstance(light, int) else list(light)
+            errs = [self.error_by_light[i] for i in lights if i < len(self.error_by_light)]
+            error = max(errs) if errs and len(errs) == len(lights) else None
             allowed = self.status == "pass" or (
                 self.status == "fail" and self.reason.startswith("error ")
             )
@@ -120,7 +122,8 @@ class Recommendation:
         default_factory=dict, repr=False, compare=False
     )
     cost_label: str = ""
-    #: When no family meets the tolerance: the area-light models judged (`_escalate`).
+    #: When no family meets the tolerance at every light: the area-light models judged for
+    #: each light no family meets on its own (`_escalate.AreaAnswer`).
     area: Any = None
     #: Per judged receiver (the order of `curves`): its angle from its spot's axis in degrees,
     #: NaN for a light that is not a spot (`plot_errors` draws spots' errors against it).
@@ -201,7 +204,7 @@ class Recommendation:
             )
         lines.append("")
         if together:
-            lines = [f"#{x}" if x.startswith("## ") and i > 0 else x for i, x in enumerate(lines)]
+            lines = [f"#{x}" if x.startswith("##") and i > 0 else x for i, x in enumerate(lines)]
         return "\n".join(lines)
 
     def _setup_lines(self) -> list[str]:
@@ -276,19 +279,32 @@ class Recommendation:
             (tmp / "recommendation.json").write_text(
                 json.dumps(self.to_dict(), indent=2) + "\n", encoding="utf-8"
             )
-            stem = None
-            if self.winner is not None:
-                stem = _ident(self.winner.family)
-            elif self.area is not None and self.area.winner is not None:
-                stem = _ident(f"area_{self.area.winner.model}")
-            if stem is not None:
-                for lang, text in self.shaders.items():
+            for stem, shaders in self._shader_files():
+                for lang, text in shaders.items():
                     (tmp / f"{stem}.{lang}").write_text(text, encoding="utf-8")
             fig, _ = self.plot_errors()
             fig.savefig(tmp / "errors.png", dpi=110)
             import matplotlib.pyplot as plt
 
             plt.close(fig)
+        return out
+
+    def _shader_files(self) -> list[tuple[str, Mapping[str, str]]]:
+        """(file stem, function per language) of what `save` writes: the winner's; with no
+        winner, each area model recommended (`attenfit_area_<model>`, and its light's index
+        when several lights have one) and the family the other lights keep."""
+        if self.winner is not None:
+            return [(_ident(self.winner.family), self.shaders)]
+        if self.area is None:
+            return []
+        won = [e for e in self.area.escalations if e.winner is not None]
+        out: list[tuple[str, Mapping[str, str]]] = [
+            (_ident(f"area_{e.winner.model}" + (f"_light{e.lights[0]}" if len(won) > 1 else "")),
+             e.shaders)
+            for e in won
+        ]  # fmt: skip
+        if self.area.others is not None:
+            out.append((_ident(self.area.others.family), self.area.others_shaders))
         return out
 
 

@@ -31,20 +31,49 @@ class FileAnswer:
 
     def summary(self) -> str:
         """The headline, one answer per light: its family (and range), and the error of what
-        is written, the final curve checked against the exact irradiance."""
-        parts = []
-        for c in self.choices:
-            rng = ""
-            if c.range is not None and c.range.get("range"):
-                rng = f", range {c.range['range']:.3g} m"
-            mark = "" if c.status == "pass" else " (closest, over tolerance)"
-            error = f", checked error {pct(c.checked_error)}"  # the error of what is written
-            if c.engine_error is not None:
-                word = "" if c.status == "pass" else "fail, closest "
-                mark = f" ({word}{pct(c.engine_error)} as the engine renders it)"
-                error = ""
-            parts.append(f"{c.name}: {c.family}{mark}{rng}{error}")
-        return "; ".join(parts)
+        is written, the final curve checked against the exact irradiance; for a light no
+        family meets, the area model it needs (its worst-case error over the light's judged
+        receivers and its compiled cost), or why it has none."""
+        return "; ".join(self._headline(c) for c in self.choices)
+
+    def _headline(self, c: LightChoice) -> str:
+        """One light's part of the headline (`summary`)."""
+        w = c.area_model
+        if w is not None:
+            own = (
+                ""
+                if self.imported.engine is None
+                else "; a shader of its own, not light properties"
+            )
+            rendered = " as the engine renders it" if c.engine_error is not None else ""
+            return (
+                f"{c.name}: area model {w.label} (max error {pct(w.error)}, shader cost "
+                f"{w.cost:g}{own}; no curve within tolerance: the closest, {c.family}, is "
+                f"{pct(c.claimed_error)} off{rendered})"
+            )
+        curve = self._curve_headline(c)
+        if c.area is not None:
+            near = c.area.closest
+            near = f", closest area model {near.label} at {pct(near.error)}" if near else ""
+            return f"{curve}; no area model meets it either{near}"
+        area = self.recommendation.area
+        why = dict(area.skipped).get(c.light) if area is not None and c.status == "fail" else None
+        return curve if why is None else f"{curve}; not escalated ({why})"
+
+    @staticmethod
+    def _curve_headline(c: LightChoice) -> str:
+        """The light's curve answer: its family (and range), and the error of what is written,
+        the final curve checked against the exact irradiance (with an engine: as it renders)."""
+        rng = ""
+        if c.range is not None and c.range.get("range"):
+            rng = f", range {c.range['range']:.3g} m"
+        mark = "" if c.status == "pass" else " (closest, over tolerance)"
+        error = f", checked error {pct(c.checked_error)}"  # the error of what is written
+        if c.engine_error is not None:
+            word = "" if c.status == "pass" else "fail, closest "
+            mark = f" ({word}{pct(c.engine_error)} as the engine renders it)"
+            error = ""
+        return f"{c.name}: {c.family}{mark}{rng}{error}"
 
     def to_markdown(self) -> str:
         """The answer per light (the headline), then the one family for all lights together."""

@@ -68,6 +68,15 @@ class LightChoice:
     #: the light's judged receivers (`_engine_fit`), the error this answer vouches for
     engine_error: float | None = None
     engine_notes: tuple[str, ...] = ()
+    #: when no family meets the tolerance at this light: its area models judged
+    #: (`_escalate.AreaEscalation`; the answer is its winner, when it has one)
+    area: Any = None
+
+    @property
+    def area_model(self) -> Any:
+        """The area model this light needs (`AreaCandidate`): no family meets the tolerance
+        here and it does; None otherwise."""
+        return None if self.area is None else self.area.winner
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -86,6 +95,7 @@ class LightChoice:
             "checked_error": self.checked_error,
             "engine_error": self.engine_error,
             "engine_notes": list(self.engine_notes),
+            "area": None if self.area is None else self.area.to_dict(),
         }
 
     @property
@@ -338,10 +348,12 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
     light = scene.lights[i]
     windowed = imported.threshold is not None
     pick, status = pick_for_light(rec.candidates, i, scene.tolerance, windowed=windowed)
+    # no family meets the tolerance here: the light's area models (the all-lights answer's)
+    area = rec.area.for_light(i) if status == "fail" and rec.area is not None else None
     if pick is None:
         return LightChoice(
             i, imported.names[i], imported.file_kinds[i], len(x.d), None, "fail",
-            {}, None, None, None, None, {}, None,
+            {}, None, None, None, None, {}, None, area=area,
         )  # fmt: skip
     spot_model, spot = _spot_of(pick, i, light, engine)
     trade, final = None, pick.models[i]
@@ -352,6 +364,8 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
             final = refit
             status = "pass"
     final = _pin_range(imported, i, final, x, spot_model)
+    if status == "pass":  # a curve met it (refitted above the threshold): no area form
+        area = None
     # the check: the final curve against the exact irradiance at the judged receivers
     keep = np.ones(len(x.d), bool)
     if trade is not None and trade.get("range"):
@@ -387,6 +401,7 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
         checked=(sub.d, errs if verdict is None else verdict.errors),
         engine_error=None if verdict is None else verdict.error,
         engine_notes=() if verdict is None else verdict.notes,
+        area=area,
     )
 
 
@@ -445,6 +460,7 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
             f"| {pct(c.checked_error)} |{eng_col} {rng} | {saved} |"
         )
     notes = [(c.name, c.range["note"]) for c in choices if c.range and c.range.get("note")]
+    notes += [(c.name, _area_note(c)) for c in choices if c.area is not None]
     if notes:
         lines += ["", *(f"- {n}: {t}" for n, t in notes)]
     if eng is not None:
@@ -467,6 +483,19 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
         lines += ["", "Skipped:", "", *(f"- {n}" for n in imported.notices)]
     lines.append("")
     return "\n".join(lines)
+
+
+def _area_note(c: LightChoice) -> str:
+    """What a light no family meets needs: its area model, or that none meets it either."""
+    w, near = c.area.winner, c.area.closest
+    if w is None:
+        found = f" (closest: {near.label}, {pct(near.error)})" if near else ""
+        return f"no family meets the tolerance here, and no area model meets it either{found}"
+    return (
+        f"no family meets the tolerance here: its answer is the area model {w.label}, max "
+        f"error {pct(w.error)} over its judged receivers, shader cost {w.cost:g} (the area "
+        'models judged: "Beyond a distance curve" below; their functions: all-lights/)'
+    )
 
 
 def _num(v: Any) -> str:
@@ -502,7 +531,8 @@ def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
             o = np.argsort(d)
             line = ax.plot(
                 d[o], np.maximum(e[o], floor), "os^vDP"[k % 6], ms=2.5, alpha=0.6,
-                label=_text(f"{c.name}: {c.family} (max {pct(c.claimed_error)})"),
+                label=_text(f"{c.name}: {c.family} (max {pct(c.claimed_error)})"
+                            + (f"; needs {c.area_model.label}" if c.area_model else "")),
             )[0]  # fmt: skip
             R = c.range.get("range") if c.range else None
             if R:

@@ -9,6 +9,11 @@ dimensionless), and recommends the cheapest one within tolerance by the compiled
 its shader form (`attenfit._shaders.function_source`), saying why: the error of the light's
 exact facing curve `f*(d)` (the best any `f(d)` can do per distance) and where it is.
 Spot lights are not escalated (an area model has no spot profile).
+
+`escalate_lights` escalates each light of a scene that no family meets on its own (the
+all-lights answer and the per-light answers of a scene file share it): each light is judged
+alone against the area models of its shape, so a scene of a bulb, a spot, a disk and a
+rectangle gets an area model for exactly the lights that need one (`AreaAnswer`).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ from ._light_fits import LightData
 from ._scene import Scene
 from ._types import LightTruth
 
-__all__ = ["AreaCandidate", "AreaEscalation", "escalate"]
+__all__ = ["AreaAnswer", "AreaCandidate", "AreaEscalation", "escalate", "escalate_lights"]
 
 
 @dataclasses.dataclass(frozen=True)
@@ -91,6 +96,8 @@ class AreaEscalation:
     cost_label: str
     shaders: dict[str, str]
     tolerance: float
+    #: the scene's lights it was judged on (their indices)
+    lights: tuple[int, ...] = ()
 
     def summary(self, families: str = "no family meets the tolerance") -> str:
         """One line: the area model recommended and why, or that none meets the tolerance
@@ -107,6 +114,7 @@ class AreaEscalation:
 
     def to_dict(self) -> dict[str, Any]:
         return {
+            "lights": list(self.lights),
             "why": self.why,
             "summary": self.summary(),
             "cost": self.cost_label,
@@ -115,10 +123,10 @@ class AreaEscalation:
             "candidates": [c.to_dict() for c in self.candidates],
         }
 
-    def markdown(self) -> list[str]:
-        """The recommendation's section on the area models (lines)."""
+    def markdown(self, heading: str = "## Beyond a distance curve: area-light models") -> list[str]:
+        """The recommendation's section on the area models (lines), under `heading`."""
         out = [
-            "## Beyond a distance curve: area-light models",
+            heading,
             "",
             self.why[0].upper() + self.why[1:] + ".",
             "",
@@ -175,10 +183,11 @@ def escalate(
     scene: Scene,
     truths: Sequence[LightTruth],
     datas: Sequence[LightData],
-    best_family: Any = None,
+    best_family: tuple[str, float] | None = None,
 ) -> AreaEscalation | None:
-    """Judge the area models on `scene` (whose families all fail); None when none applies
-    (spot lights, or lights of kinds no area model is written for together)."""
+    """Judge the area models on the lights of `truths` in `scene` (whose families all fail
+    there; `best_family`: the most accurate one's label and error there); None when none
+    applies (spot lights, or lights of kinds no area model is written for together)."""
     lights = [scene.lights[t.light] for t in truths]
     if any(light.is_spot for light in lights):
         return None
@@ -188,7 +197,7 @@ def escalate(
     with jax.enable_x64(True):
         receivers = []
         worst = (-1.0, "")
-        for k, (t, x) in enumerate(zip(truths, datas, strict=True)):
+        for t, x in zip(truths, datas, strict=True):
             em = t.dataset.emitter
             j = t.judged
             pts = np.asarray(t.dataset.points, dtype=np.float64)[j]
@@ -202,14 +211,16 @@ def escalate(
                 p = ", ".join(f"{v:.3g}" for v in pts[i])
                 worst = (
                     float(err[i]),
-                    f"receiver ({p}) of light {k} (d = {x.d[i]:.3g} m, n.l = {stacked[1, i]:.2f})",
+                    f"receiver ({p}) of light {t.light} (d = {x.d[i]:.3g} m, n.l = {stacked[1, i]:.2f})",
                 )
         why = (
             f"no f(d) can: the error is angular, the best f(d) (the light's exact facing "
             f"curve) is {pct(worst[0])} off at {worst[1]}"
         )
-        if best_family is not None and best_family.error is not None:
-            why += f"; the most accurate fitted family, {best_family.label}, is {pct(best_family.error)} off"
+        if best_family is not None:
+            why += (
+                f"; the most accurate fitted family, {best_family[0]}, is {pct(best_family[1])} off"
+            )
         unlit = sum(t.unlit for t in truths)
         if unlit:
             why += f"; {unlit} receivers facing away from the light's centre are lit and get 0 from any f(d)"
@@ -244,10 +255,9 @@ def escalate(
     failing = [c.item for c in ranking.outside]
     winner = passing[0] if passing else None
     closest = ranking.closest.item if ranking.closest is not None else None
-    shaders = _shaders(winner, [t.dataset.emitter for t in truths]) if winner else {}
-    return AreaEscalation(
-        why, (*passing, *failing), winner, closest, label, shaders, float(scene.tolerance)
-    )
+    shaders = _shaders(winner, truths) if winner else {}
+    lights, tol = tuple(t.light for t in truths), float(scene.tolerance)
+    return AreaEscalation(why, (*passing, *failing), winner, closest, label, shaders, tol, lights)
 
 
 def _variants(
@@ -281,13 +291,13 @@ def _sizes(model: AreaModel, emitter: Any) -> str:
     )
 
 
-def _shaders(winner: AreaCandidate, emitters: Sequence[Any]) -> dict[str, str]:
+def _shaders(winner: AreaCandidate, truths: Sequence[LightTruth]) -> dict[str, str]:
     """The winner's function per language (`attenfit_<model>`, one for every light: the
     light's size is its argument: `r`, or a rectangle's `hw, hh`), with the export's header
     and the scene's lines."""
     model = get_area_model(winner.model)(**(winner.params if winner.fitted else {}))
     with jax.enable_x64(True):
-        sizes = [f"{_sizes(model, em)} (light {k})" for k, em in enumerate(emitters)]
+        sizes = [f"{_sizes(model, t.dataset.emitter)} (light {t.light})" for t in truths]
     radius = type(model).form_sizes == {"radius": "r"}
     lights = (", " if radius else "; ").join(sizes)
     fitted = " (fitted to it)" if winner.fitted else ""
@@ -303,3 +313,144 @@ def _shaders(winner: AreaCandidate, emitters: Sequence[Any]) -> dict[str, str]:
     ]
     fname = f"attenfit_{model.name}"
     return {lang: function_source(model, lang, fname, notes=notes)[0] for lang in LANGUAGES}
+
+
+# ----------------------------------------------------------------------------- per light
+@dataclasses.dataclass(frozen=True)
+class AreaAnswer:
+    """The area part of a scene's answer when no family meets the tolerance at every light.
+
+    `escalations`: one per light that no family meets on its own, judged alone against the
+    area models of its shape (`escalate`), in the lights' order; `skipped`: the lights that
+    need one but cannot have one, with why (a spot: no area model has a spot profile).
+    `others`: the family the remaining lights keep (the cheapest within tolerance at all of
+    them, ranked as every verdict; a `Candidate`), its error there `others_error` and its
+    shader functions `others_shaders`; None when every light needs an area form, or when no
+    one family meets the rest (their per-light answers then differ)."""
+
+    kinds: tuple[str, ...]
+    escalations: tuple[AreaEscalation, ...]
+    skipped: tuple[tuple[int, str], ...]
+    tolerance: float
+    others: Any = None
+    others_error: float | None = None
+    others_shaders: dict[str, str] = dataclasses.field(default_factory=dict)
+
+    def for_light(self, light: int) -> AreaEscalation | None:
+        """The escalation of scene light `light` (None: it needs none, or cannot have one)."""
+        return next((e for e in self.escalations if light in e.lights), None)
+
+    @property
+    def need(self) -> tuple[int, ...]:
+        """The lights no family meets on its own."""
+        return tuple(
+            sorted([*(e.lights[0] for e in self.escalations), *(i for i, _ in self.skipped)])
+        )
+
+    @property
+    def shaders(self) -> dict[str, str]:
+        """Every recommended area model's function per language, one light after another."""
+        winners = [e for e in self.escalations if e.winner is not None]
+        return (
+            {lang: "\n".join(e.shaders[lang] for e in winners) for lang in LANGUAGES}
+            if winners
+            else {}
+        )
+
+    def _light(self, i: int) -> str:
+        return f"light {i} ({self.kinds[i]})"
+
+    def summary(self, families: str) -> str:
+        """One line: what `families` says, then which lights need an area form and the model
+        each gets, with its worst-case error and compiled cost, and what the others keep.
+        A scene whose one light needs it reads as the escalation's own summary."""
+        if len(self.kinds) == 1 and len(self.escalations) == 1:
+            return self.escalations[0].summary(families)
+        parts = [families]
+        for e in self.escalations:
+            w, c, who = e.winner, e.closest, self._light(e.lights[0])
+            if w is not None:
+                parts.append(
+                    f"{who} needs an area form: the area model {w.label} (max error "
+                    f"{pct(w.error)} <= tolerance {pct(self.tolerance)}, shader cost {w.cost:g})"
+                )
+            else:
+                near = (
+                    f", closest: the area model {c.label} with max error {pct(c.error)}"
+                    if c
+                    else ""
+                )
+                parts.append(f"{who}: no area model meets it either{near}")
+        parts += [f"{self._light(i)}: not escalated ({why})" for i, why in self.skipped]
+        rest = len(self.kinds) - len(self.need)
+        others = "the other light" if rest == 1 else f"the other {rest} lights"
+        if self.others is not None:
+            o = self.others
+            parts.append(
+                f"{others} keep{'s' if rest == 1 else ''} {o.label} (max error "
+                f"{pct(self.others_error)} <= tolerance {pct(self.tolerance)}, shader cost "
+                f"{o.shader_cost:g})"
+            )
+        elif rest:
+            parts.append(f"no one family meets {others} together (see each light's answer)")
+        return "; ".join(parts)
+
+    def to_dict(self) -> dict[str, Any]:
+        o = self.others
+        return {
+            "need": list(self.need),
+            "lights": {str(e.lights[0]): e.to_dict() for e in self.escalations},
+            "skipped": [{"light": i, "why": why} for i, why in self.skipped],
+            "others": None if o is None else {"family": o.label, "error": self.others_error,
+                                              "shader_cost": o.shader_cost},
+        }  # fmt: skip
+
+    def markdown(self) -> list[str]:
+        """The recommendation's section on the area models (lines): one light's escalation
+        as it always read; several, one subsection per light."""
+        if len(self.kinds) == 1 and len(self.escalations) == 1:
+            return self.escalations[0].markdown()
+        out = [
+            "## Beyond a distance curve: area-light models",
+            "",
+            f"No family meets the tolerance at {len(self.need)} of the {len(self.kinds)} lights "
+            "on its own: each of those is judged alone against the area models of its shape.",
+            "",
+        ]
+        out += [f"- {self._light(i)}: not escalated ({why})." for i, why in self.skipped]
+        out += [""] if self.skipped else []
+        for e in self.escalations:
+            out += e.markdown(f"### {self._light(e.lights[0])}")
+        return out
+
+
+#: Why a light no family meets gets no area model.
+_SPOT = "a spot: no area model has a spot profile"
+
+
+def escalate_lights(
+    scene: Scene,
+    truths: Sequence[LightTruth],
+    datas: Sequence[LightData],
+    need: Sequence[int],
+    closest: dict[int, tuple[str, float]],
+) -> AreaAnswer:
+    """Each light of `need` (those no family meets on its own) escalated alone (`escalate`),
+    with `closest[i]` the most accurate family's label and error at light `i`."""
+    escalations, skipped = [], []
+    for i in need:
+        light = scene.lights[i]
+        if light.is_spot:
+            skipped.append((i, _SPOT))
+            continue
+        e = escalate(scene, [truths[i]], [datas[i]], closest.get(i))
+        if e is None:
+            skipped.append((i, f"no area model is written for a {light.kind} light"))
+        else:
+            escalations.append(e)
+    return AreaAnswer(
+        tuple(light.kind for light in scene.lights),
+        tuple(escalations),
+        tuple(skipped),
+        float(scene.tolerance),
+    )

@@ -43,6 +43,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
 from typing import Any
@@ -115,11 +116,8 @@ def recommend(
     shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
     area = None
     if winner is None:  # no f(d) meets the tolerance: try the area models (_escalate)
-        from ._escalate import escalate
-
-        _progress.stage("no family meets the tolerance: area-light models")
-        area = escalate(scene, truths, datas, closest)
-        shaders = area.shaders if area is not None and area.winner is not None else shaders
+        area = _escalation(scene, truths, datas, ordered)
+        shaders = area.shaders or shaders
     truth = tuple(_truth_summary(scene, t, x) for t, x in zip(truths, datas, strict=True))
     return Recommendation(
         scene=scene,
@@ -163,6 +161,53 @@ def order(
         runner_up = failing[0]
     closest = ranking.closest.item if ranking.closest is not None else None
     return (*passing, *failing, *excluded), winner, runner_up, closest  # type: ignore[return-value]
+
+
+def _escalation(
+    scene: Scene,
+    truths: Sequence[LightTruth],
+    datas: Sequence[LightData],
+    candidates: Sequence[Candidate],
+) -> Any:
+    """The area answer of a scene no family meets at every light (`_escalate.AreaAnswer`):
+    each light no family meets on its own escalated alone, and the family the other lights
+    keep, ranked as every verdict (`Candidate.contender` over those lights)."""
+    from ._escalate import escalate_lights
+
+    _progress.stage("no family meets the tolerance: area-light models")
+    fitted = [c for c in candidates if c.models]
+    need, closest = [], {}
+    for i in range(len(datas)):
+        ranking = rank((c.contender(i) for c in fitted), scene.tolerance)
+        if ranking.best is None:
+            need.append(i)
+            if ranking.closest is not None:
+                closest[i] = (ranking.closest.item.label, float(ranking.closest.error))
+    area = escalate_lights(scene, truths, datas, need, closest)
+    rest = [i for i in range(len(datas)) if i not in need]
+    if not rest or not need:
+        return area
+    best = rank((c.contender(rest) for c in fitted), scene.tolerance).best
+    if best is None:
+        return area
+    pick = best.item
+    pick = dataclasses.replace(  # the family as the other lights keep it
+        pick,
+        status="pass",
+        reason="within tolerance at the other lights",
+        error=best.error,
+        error_by_light=tuple(pick.error_by_light[i] for i in rest),
+        directional_params=tuple(pick.directional_params[i] for i in rest)
+        if pick.directional_params
+        else (),
+        params=tuple(pick.params[i] for i in rest),
+        models=tuple(pick.models[i] for i in rest),
+        spot_models=tuple(pick.spot_models[i] for i in rest) if pick.spot_models else (),
+    )
+    shaders = _shaders(pick, len(rest), scene.source)
+    return dataclasses.replace(
+        area, others=pick, others_error=float(best.error), others_shaders=shaders
+    )
 
 
 # ----------------------------------------------------------------------------- the steps
