@@ -573,3 +573,22 @@ def test_write_back_writes_the_area_light(tmp_path, engine):
     assert out.read_bytes() == before
     write_back(ans.imported, ans.choices, out, force=True)
     assert not list(tmp_path.glob("*.tmp*"))  # written atomically: no partial file left
+
+
+def test_a_passing_engine_area_light_is_the_answer_not_a_shader_of_its_own(example_answers):
+    """Godot's AreaLight3D renders the panel within tolerance: the headline and the table
+    name that light, and no area model (a shader of its own) is offered beside it."""
+    ans = example_answers["panel", "godot"]
+    (c,) = ans.choices
+    assert c.status == "pass" and c.area is None
+    assert "AreaLight3D" in ans.summary() and "area model" not in ans.summary()
+    assert "AreaLight3D" in ans.to_markdown().split("| light 0 (rect) |")[1].split("\n")[0]
+
+
+def test_a_failing_engine_answer_still_offers_the_area_model(example_answers):
+    """Where the engine renders the panel past tolerance (Filament: a spot stand-in), the
+    light's area model is offered as a shader of its own."""
+    ans = example_answers["panel", "filament"]
+    (c,) = ans.choices
+    assert c.status == "fail" and c.engine_error > ans.imported.scene.tolerance
+    assert c.area_model is not None and "a shader of its own" in ans.summary()

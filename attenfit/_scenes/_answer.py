@@ -48,7 +48,7 @@ class FileAnswer:
             rendered = " as the engine renders it" if c.engine_error is not None else ""
             return (
                 f"{c.name}: area model {w.label} (max error {pct(w.error)}, shader cost "
-                f"{w.cost:g}{own}; no curve within tolerance: the closest, {c.family}, is "
+                f"{w.cost:g}{own}; no curve within tolerance: the closest, {c.answered_as}, is "
                 f"{pct(c.claimed_error)} off{rendered})"
             )
         curve = self._curve_headline(c)
@@ -73,7 +73,7 @@ class FileAnswer:
             word = "" if c.status == "pass" else "fail, closest "
             mark = f" ({word}{pct(c.engine_error)} as the engine renders it)"
             error = ""
-        return f"{c.name}: {c.family}{mark}{rng}{error}"
+        return f"{c.name}: {c.answered_as}{mark}{rng}{error}"
 
     def to_markdown(self) -> str:
         """The answer per light (the headline), then the one family for all lights together."""

@@ -73,6 +73,13 @@ class LightChoice:
     area: Any = None
 
     @property
+    def answered_as(self) -> str | None:
+        """What the light is answered with: the engine's own area light (its light type,
+        `_engine_area`) where the answer is one, else the family."""
+        own = self.properties.get("light_type")
+        return f"{own} (the engine's own area light)" if own else self.family
+
+    @property
     def area_model(self) -> Any:
         """The area model this light needs (`AreaCandidate`): no family meets the tolerance
         here and it does; None otherwise."""
@@ -383,6 +390,9 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
             engine.size_prop, engine.size_unit * light.radius, scene.precision,
         )  # fmt: skip
         props, status = dict(verdict.properties), verdict.status
+        trade = _engine_range(engine.witness, props, trade)
+        if status == "pass":  # the engine renders it within tolerance: no shader of its own
+            area = None
     return LightChoice(
         light=i,
         name=imported.names[i],
@@ -403,6 +413,29 @@ def _one_choice(imported, rec: Recommendation, i: int, x: LightData) -> LightCho
         engine_notes=() if verdict is None else verdict.notes,
         area=area,
     )
+
+
+def _engine_range(w, props: Mapping[str, Any], trade):
+    """`trade` with the range the engine's settings hold (m): the engine search moves the
+    range with the other properties (`_engine_search`), and the headline, the table and the
+    write-back state that one range."""
+    held = [(n, u) for n, role, u, *_ in w.search_props if role == "range" and n in props]
+    if trade is None or not trade.get("range") or not held:
+        return trade
+    (name, unit), *_ = held
+    R = float(props[name]) / unit
+    if math.isclose(R, float(trade["range"]), rel_tol=1e-9):
+        return trade
+    out = {**trade, "range": R}
+    ref = trade.get("reference_range")
+    if "volume_saved" in trade and ref is not None and math.isfinite(ref) and ref > 0:
+        out["volume_saved"] = 1.0 - (R / ref) ** 3
+    moved = (
+        f"the engine's closest settings, searched with its other properties, put the range "
+        f"at {R:.4g} m (the range trade's {float(trade['range']):.4g} m)"
+    )
+    out["note"] = f"{trade['note']}; {moved}" if trade.get("note") else moved
+    return out
 
 
 def light_choices(
@@ -451,9 +484,8 @@ def choices_markdown(imported: ImportedScene, choices: Sequence[LightChoice]) ->
                     saved = f"{pct(v)} of {ref:g} m's"
                 else:
                     saved = f"none: {1 - v:.3g} x the volume of {ref:g} m"
-        fam = (
-            c.family if c.status == "pass" else f"fail, closest {pct(c.claimed_error)}: {c.family}"
-        )
+        fam = c.answered_as
+        fam = fam if c.status == "pass" else f"fail, closest {pct(c.claimed_error)}: {fam}"
         eng_col = f" {pct(c.engine_error)} |" if eng is not None else ""
         lines.append(
             f"| {c.name} | {c.file_kind} | {c.receivers} | {fam} | {params} | {pct(c.error)} "
@@ -531,7 +563,7 @@ def plot_choices(imported: ImportedScene, choices: Sequence[LightChoice]):
             o = np.argsort(d)
             line = ax.plot(
                 d[o], np.maximum(e[o], floor), "os^vDP"[k % 6], ms=2.5, alpha=0.6,
-                label=_text(f"{c.name}: {c.family} (max {pct(c.claimed_error)})"
+                label=_text(f"{c.name}: {c.answered_as} (max {pct(c.claimed_error)})"
                             + (f"; needs {c.area_model.label}" if c.area_model else "")),
             )[0]  # fmt: skip
             R = c.range.get("range") if c.range else None

@@ -61,6 +61,7 @@ from ._advice import Candidate, Recommendation, pct
 from ._light_fits import (
     LightData,
     SpotVariant,
+    _range_param,
     fit_families,
     fit_plan,
     judged_errors,
@@ -113,7 +114,8 @@ def recommend(
         cand, curves[name] = _judge_family(scene, name, fit, datas, variants, costs[name], ns)
         candidates.append(cand)
     ordered, winner, runner_up, closest = order(candidates, scene.tolerance)
-    shaders = _shaders(winner, len(datas), scene.source) if winner is not None else {}
+    d_far = max(float(x.d.max()) for x in datas)
+    shaders = _shaders(winner, len(datas), scene.source, d_far) if winner is not None else {}
     area = None
     if winner is None:  # no f(d) meets the tolerance: try the area models (_escalate)
         area = _escalation(scene, truths, datas, ordered)
@@ -204,7 +206,7 @@ def _escalation(
         models=tuple(pick.models[i] for i in rest),
         spot_models=tuple(pick.spot_models[i] for i in rest) if pick.spot_models else (),
     )
-    shaders = _shaders(pick, len(rest), scene.source)
+    shaders = _shaders(pick, len(rest), scene.source, max(float(datas[i].d.max()) for i in rest))
     return dataclasses.replace(
         area, others=pick, others_error=float(best.error), others_shaders=shaders
     )
@@ -500,20 +502,35 @@ def _truth_summary(scene: Scene, t: LightTruth, x: LightData) -> dict[str, Any]:
     }
 
 
-def _shaders(winner: Candidate, n_lights: int, source: str) -> dict[str, str]:
+#: A range that ran away in a fit is written at this many times the farthest receiver: a
+#: window's departure from 1 there (at most d/R, a linear window's) is below float32's
+#: rounding, so the curve is the fitted one, and the value is a finite float32.
+_FAR_CAP = 1e8
+
+
+def _shaders(winner: Candidate, n_lights: int, source: str, d_far: float) -> dict[str, str]:
     """The winner's exported shader form per language (baked for one light, uniforms for
-    several), its header quoting the error over the scene."""
+    several), its header quoting the error over the scene. `d_far`: the farthest receiver
+    (m); a range that ran away past `_FAR_CAP` times it is written at that cap."""
     out = {}
     model = winner.models[0]
     spot = next((m for m in winner.spot_models if m is not None), None)
+    params, where = _plain_params(model), f"the scene {source}"
+    rp = _range_param(type(model))
+    if rp is not None and not params[rp] <= _FAR_CAP * d_far:  # also catches inf and nan
+        params[rp] = _FAR_CAP * d_far
+        where += (
+            f"; the fitted range ran away and is written at {_FAR_CAP:g} x the farthest "
+            f"receiver ({params[rp]:.3g} m), where the window is 1 to float32 rounding"
+        )
     for lang in LANGUAGES:
         parts = []
         fit = {  # the header quotes the fitted error (through the export's sanitiser)
             "family": model.name,
-            "params": _plain_params(model),
+            "params": params,
             "metrics": {"max_error_over_the_scene": winner.error},
             "converged": winner.converged,
-            "configuration": f"the scene {source}",
+            "configuration": where,
         }
         if n_lights > 1:
             parts.append(
