@@ -407,7 +407,27 @@ def search(case: Case, props: Mapping[str, Any], size_value: float = 0.0):
             best_p, best_e = p, e
         if len(starts) == _STARTS:
             break
-    return best_p, best_e
+    return _tightest_range(case, best_p, best_e)
+
+
+#: How much worse (relative) a smaller range may render and still be taken: a tenth of the
+#: search's stated resolution (1e-3, `tests/test_engine_search.py`).
+_RANGE_SLACK = 1e-4
+
+
+def _tightest_range(case: Case, p: dict[str, Any], e: float) -> tuple[dict[str, Any], float]:
+    """`p` with its range brought down to the smallest (to 1e-6 relative, above the nearest
+    receiver) that renders within `_RANGE_SLACK` of `e`, and its error: past the
+    farthest receiver a window is nearly 1, the error is nearly flat there, and a search may
+    stop anywhere on it (a room would get a range of kilometres)."""
+    for name, role, unit, lo, _hi in case.w.search_props:
+        if role == "range" and name in p:
+            a, b = max(lo, float(case.x.d.min()) * unit), float(p[name])
+            while b > a * (1 + 1e-6):  # log bisection; b always renders within the bound
+                m = math.sqrt(a * b)
+                a, b = (a, m) if case.worst({**p, name: m}) <= e * (1 + _RANGE_SLACK) else (m, b)
+            p = {**p, name: b}
+    return p, case.worst(p)
 
 
 def _descend(case: Case, props, axes, guard, u: np.ndarray, h: np.ndarray, seen: np.ndarray):
