@@ -41,8 +41,8 @@ COMMANDS = [
     ("scene", "attenfit scene room.toml", ["scene", str(SCENES / "room.toml")], 10.0, 2.0),
     ("usd", "attenfit scene blender/room.usda --side ...",
      ["scene", str(BLENDER / "room.usda"), "--side", str(BLENDER / "room.side.toml")],
-     None, None),
-    ("report", "attenfit report", ["report", "--out", "{tmp}/report", "--force"], 25.0, 10.0),
+     10.0, 2.0),
+    ("report", "attenfit report", ["report", "--out", "{tmp}/report", "--force"], 30.0, 10.0),
 ]  # fmt: skip
 WARM_RUNS = 3
 
