@@ -13,25 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from test_engine_witness import _DISK  # the issue's DiskLight scene
 
 from attenfit._judge import get_witness
 from attenfit._scenes import Scene
 from attenfit._scenes._answer import answer_scene
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "scenes"
-
-_DISK = """
-tolerance = 0.05
-[[lights]]
-kind = "disk"
-radius = 0.1
-position = [0.0, 0.0, 1.0]
-normal = [0, 0, -1]
-[[receivers]]
-kind = "plane"
-extent = 3.0
-resolution = 24
-"""
 
 
 def _engine_range_m(engine: str, props) -> float:
