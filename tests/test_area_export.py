@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import ctypes
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -102,6 +103,33 @@ def test_a_frame_models_header_says_what_its_inputs_are(name):
     assert "the unit of d" not in src and "distance from the receiver" not in src
     if "r" in cls.input_names:  # a tube's radius
         assert re.search(r"^// +r +the tube's radius \(across its axis\); length$", src, re.M)
+
+
+@pytest.mark.parametrize("name", FRAME_MODELS)
+def test_a_frame_models_output_line_names_its_own_intensity(name):
+    """The header's `output` line states the `I` the model divides by in the light's own
+    size names (the class's `output_text`): a rectangle has no `r`, so no `pi r^2`."""
+    cls = area.get_area_model(name)
+    (line,) = [x for x in ex.export(name, "glsl").splitlines() if x.startswith("// output  :")]
+    assert line.startswith("// output  : E / I in 1/length^2 (I: ")
+    if cls.light == "rect":
+        assert "I = w h L = 4 hw hh L" in line and "pi r^2" not in line
+    else:
+        assert "I = pi r^2 L, r the tube's radius" in line
+
+
+def test_the_stated_intensities_are_the_far_field_ones():
+    """The `I` each frame header states is the far-field law (E = L A_projected / D^2 for a
+    Lambertian emitter of radiance L): far along a rectangle's normal E / I = 1 / D^2 with
+    I = w h L; far beside a thin tube (broadside, projected area 2 r l) E / I = 2 r l /
+    (pi r^2 D^2) with I = pi r^2 L."""
+    hw, hh, hl, r, D = 0.3, 0.2, 0.5, 0.01, 1e3
+    rect = area.get_area_model("clipped_rect")()
+    e = float(rect.irradiance(0.0, 0.0, D, 0.0, 0.0, -1.0, hw, hh))
+    assert e * D**2 == pytest.approx(1.0, rel=1e-6)  # I = w h L
+    tube = area.get_area_model("lambert_line")()
+    e = float(tube.irradiance(0.0, D, 0.0, 0.0, -1.0, 0.0, hl, r))
+    assert e * D**2 == pytest.approx(2 * r * (2 * hl) / (math.pi * r**2), rel=1e-6)
 
 
 def test_the_header_lists_parameters_and_their_values():

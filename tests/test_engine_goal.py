@@ -103,3 +103,22 @@ def test_float32_answer_is_rendered_in_float32():
         assert c.engine_error == pytest.approx(rendered, rel=0.05), c.name
         if c.status == "pass":
             assert rendered <= 1.05 * ans.imported.scene.tolerance, c.name
+
+
+CAPSULE_TOML = """tolerance = 0.05
+lights = [{kind = "capsule", radius = 0.05, length = 1.2, axis = [1, 0, 0], height = 0.6}]
+receivers = [{kind = "plane", extent = 1.5, resolution = 24}]
+"""
+
+
+def test_capsule_engine_answer_is_judged_from_its_centre(tmp_path):
+    """A capsule (a 1.2 m tube lamp 0.6 m over a floor) answered for three.js: the engine's
+    point light sits at the capsule's centre, so the error the answer claims is the one
+    three.js renders from there (`threejs` in tests/_engine_code.py, at distances from the
+    centre), not at the receivers' distances to the segment."""
+    path = tmp_path / "capsule.toml"
+    path.write_text(CAPSULE_TOML)
+    scene = Scene.load(path)
+    ans = answer_scene(scene, "threejs")
+    ((c, rendered),) = engine_rendered_errors(ans.imported.scene, ans.choices, "threejs")
+    assert c.engine_error == pytest.approx(rendered, rel=1e-6)

@@ -4,7 +4,9 @@ reading of the file made here: usd-core's own attribute values and `UsdGeom.Xfor
 (at the time the test names), or the glTF JSON, turned into metres and point-equivalent
 intensity by the UsdLux formulas (radiance = intensity x 2^exposure, over the area with
 normalize; point-equivalent = radiance x pi r^2) and the KHR_lights_punctual README
-(intensity in candela, spot angles in radians; a node's -Z rotated by its quaternion).
+(intensity in candela, spot angles in radians; a node's -Z rotated by its quaternion). The
+radiance is also multiplied by `inputs:diffuse` (UsdLux LightAPI, default 1: "A multiplier
+for the effect of this light on the diffuse response of materials").
 
 The end-to-end answers of the larger files are `slow`; every file's lights are read and
 checked in the fast suite."""
@@ -52,6 +54,7 @@ def _hand(path: Path, prim: str, time=None, radius=None):
     radiance = get("inputs:intensity", "intensity", default=1.0) * 2.0 ** get(
         "inputs:exposure", "exposure", default=0.0
     )
+    radiance *= get("inputs:diffuse", "diffuse", default=1.0)
     if get("inputs:normalize", "normalize", default=False):
         radiance /= 4 * math.pi * r**2
     axis = np.array([0.0, 0.0, -1.0]) @ m[:3, :3]
@@ -61,8 +64,8 @@ def _hand(path: Path, prim: str, time=None, radius=None):
 def _hand_rect(path: Path, prim: str, time=None):
     """(centre m, (width, height) m, point-equivalent intensity, normal) of a USD RectLight,
     read with usd-core: UsdLux's default 1 x 1 size times the world scale, in metres;
-    point-equivalent = radiance x area (radiance = intensity x 2^exposure, over the area
-    with normalize: intensity x 2^exposure); it emits along its -Z."""
+    point-equivalent = radiance x area (radiance = intensity x 2^exposure x diffuse, over
+    the area with normalize); it emits along its -Z."""
     time = Usd.TimeCode.Default() if time is None else time
     stage = Usd.Stage.Open(str(path))
     p = stage.GetPrimAtPath(prim)
@@ -76,6 +79,7 @@ def _hand_rect(path: Path, prim: str, time=None):
     w = get("inputs:width", 1.0) * float(np.linalg.norm(m[0, :3])) * mpu
     h = get("inputs:height", 1.0) * float(np.linalg.norm(m[1, :3])) * mpu
     radiance = get("inputs:intensity", 1.0) * 2.0 ** get("inputs:exposure", 0.0)
+    radiance *= get("inputs:diffuse", 1.0)
     if get("inputs:normalize", False):
         radiance /= w * h
     normal = np.array([0.0, 0.0, -1.0]) @ m[:3, :3]
@@ -189,12 +193,13 @@ def test_openusd_light_visibility_follows_time(capsys):
 def test_maya_usd_lights_read_at_the_start_time_code(capsys):
     """maya-usd's light-import test: the spot's cone, softness and translation are authored
     only as time samples (at 1, the start time code): 25 degrees at (10, 7, -8) cm. The
-    published file has no mesh and a spot with focus 8 (refused with a notice); the
-    answerable layer beside it adds a floor and sets focus 0 (LICENSES.md)."""
+    published file has no mesh and a spot of diffuse 0 (it lights no diffuse surface:
+    skipped with a notice) and focus 8; the answerable layer beside it adds a floor and sets
+    focus 0 and diffuse 1 (LICENSES.md)."""
     public = DATA / "maya-usd-lights" / "LightsTest.usda"
     code, _, err = _answer(capsys, public, "--radius", "0.05")
     assert code == 2 and "no mesh to sample receivers on" in err
-    assert "/LightsTest/spotLight1: shaping:focus 8 is not modelled" in err
+    assert "/LightsTest/spotLight1: inputs:diffuse 0: the light does not reach diffuse" in err
     path = DATA / "maya-usd-lights" / "LightsTest.answerable.usda"
     for time, argv in ((Usd.TimeCode(1), ()), (Usd.TimeCode(3), ("--time", "3"))):
         im = load_mesh_scene(
@@ -254,7 +259,8 @@ def test_maya_usd_rfm_lights_skip_the_textured_rect(capsys):
     """RenderMan-for-Maya lights on a centimetre stage: the textured RectLight is skipped
     with a notice (its emission varies over it), the DistantLight too; the SphereLight has
     the ShapingAPI with no cone authored (UsdLux's default 90 degrees: a hemisphere spot),
-    normalize on, exposure 0.7; the empty RectLight keeps every default."""
+    normalize on, exposure 0.7, diffuse 1.7 (a factor on its intensity: 1.7 x 1.7 x 2^0.7 /
+    (4 pi r^2) x pi r^2 = 1.7^2 2^0.7 / 4); the empty RectLight keeps every default."""
     path = DATA / "maya-usd-rfm-lights" / "RfMLightsTest.usda"
     notes: list[str] = []
     got = _usd_lights(path, notice=notes.append)
@@ -267,6 +273,7 @@ def test_maya_usd_rfm_lights_skip_the_textured_rect(capsys):
     assert s.kind == "spot" and s.umbra == pytest.approx(90.0)
     assert s.position == pytest.approx(tuple(centre)) and s.radius == pytest.approx(r)
     assert s.intensity == pytest.approx(intensity, rel=1e-6)
+    assert s.intensity == pytest.approx(1.7**2 * 2**0.7 / 4, rel=1e-6)  # float inputs
     assert s.direction == pytest.approx(tuple(axis))
     _check_rect(got[rect], _hand_rect(path, rect))
     _answered(capsys, path, [sphere, rect])

@@ -304,3 +304,66 @@ def test_write_back_values_are_in_the_stage_units(tmp_path):
     assert "0.01" in prim.GetAttribute("attenfit:range").GetDocumentation()
     # the engine's own property stays in the engine's unit (glTF: metres)
     assert prim.GetAttribute("attenfit:gltf:range").Get() == pytest.approx(11.91)
+
+
+def _lights(*lights: tuple[str, str, dict]) -> str:
+    """usda text of lights (type, name, {attribute: float}; `normalize` a bool)."""
+    out = []
+    for type_name, name, attrs in lights:
+        lines = [
+            f"    bool inputs:{k} = 1" if k == "normalize" else f"    float {k} = {v}"
+            for k, v in attrs.items()
+        ]
+        out.append(f'def {type_name} "{name}"\n{{\n' + "\n".join(lines) + "\n}")
+    return "\n".join(out) + "\n"
+
+
+DIFFUSE = _lights(
+    ("SphereLight", "sphere", {"inputs:radius": 10, "inputs:intensity": 3, "inputs:diffuse": 0.5}),
+    ("DiskLight", "disk", {"inputs:radius": 10, "inputs:intensity": 2, "inputs:diffuse": 2.5, "normalize": 1}),
+    ("RectLight", "rect", {"inputs:width": 20, "inputs:height": 10, "inputs:intensity": 4, "inputs:diffuse": 0.25}),
+    ("CylinderLight", "tube", {"inputs:length": 30, "inputs:radius": 5, "inputs:intensity": 2, "inputs:diffuse": 3}),
+    ("SphereLight", "old", {"inputs:radius": 10, "diffuse": 0.5}),
+)  # fmt: skip
+
+
+def test_diffuse_multiplies_the_intensity(tmp_path):
+    """UsdLux LightAPI `inputs:diffuse` ("A multiplier for the effect of this light on the
+    diffuse response of materials", default 1) scales the radiance attenfit judges; worked
+    by hand on a centimetre stage: sphere 3 x 0.5 x pi (0.1 m)^2; disk normalised, 2 x 2.5 /
+    (pi r^2) x pi r^2 = 5; rect 4 x 0.25 x (0.2 x 0.1 m); tube 2 x 3 x pi (0.05 m)^2; the
+    pre-2021 name `diffuse` read with a notice: 1 x 0.5 x pi (0.1 m)^2."""
+    im, notes = _load(_scene(tmp_path, DIFFUSE, "metersPerUnit = 0.01"))
+    got = dict(zip(im.names, (x.intensity for x in im.scene.lights), strict=True))
+    assert got == pytest.approx(
+        {
+            "/sphere": 1.5 * math.pi * 0.01,
+            "/disk": 5.0,
+            "/rect": 0.02,
+            "/tube": 6 * math.pi * 0.0025,
+            "/old": 0.5 * math.pi * 0.01,
+        },
+        rel=1e-6,  # float inputs
+    )
+    (note,) = [n for n in notes if "pre-2021" in n]
+    assert "/old" in note and "diffuse" in note
+
+
+@pytest.mark.parametrize("light", ["SphereLight", "RectLight"])
+def test_diffuse_zero_is_skipped_with_a_notice_and_refused_with_strict(tmp_path, light):
+    """`inputs:diffuse` 0 (maya-usd's LightsTest.usda spot): the light lights no diffuse
+    surface, so attenfit has nothing to judge; skipped as the unmodelled inputs are."""
+    body = f'def {light} "dark"\n{{\n    float inputs:diffuse = 0\n}}\n' + OLD
+    path = _scene(tmp_path, body, "metersPerUnit = 0.01")
+    im, notes = _load(path)
+    assert im.names == ("/bulb",)
+    (note,) = [n for n in notes if "/dark" in n]
+    assert "inputs:diffuse 0" in note and note.endswith("skipped")
+    with pytest.raises(BadValueError, match=r"/dark: inputs:diffuse 0.*--strict refuses it"):
+        load_mesh_scene(path, samples=16, strict=True, notice=lambda m: None)
+
+
+def test_negative_diffuse_is_refused_naming_it(tmp_path):
+    body = OLD.replace("float radius = 20", "float radius = 20\n    float inputs:diffuse = -1")
+    with pytest.raises(BadValueError, match="/bulb: inputs:diffuse -1 is negative"):
+        _load(_scene(tmp_path, body, "metersPerUnit = 0.01"))

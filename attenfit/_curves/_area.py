@@ -206,6 +206,12 @@ class AreaModel(Model):
     form_sizes: ClassVar[dict[str, str]] = {"radius": "r"}
     #: What each of its inputs is, and its unit, by name (the header `attenfit export` prints).
     input_text: ClassVar[dict[str, str]] = AREA_INPUT_TEXT
+    #: What it returns, in words (the header's `output` line): `E / I` and the `I` it
+    #: divides by, in its own light's size names.
+    output_text: ClassVar[str] = (
+        "E / I in 1/length^2 (I: the light's point-equivalent intensity, I = pi r^2 L; "
+        "docs/architecture.md, Conventions)"
+    )
     described = ("light", "exact")
 
     #: The lights it is written for: "sphere" (spheres, and capsules at their closest point

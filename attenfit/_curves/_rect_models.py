@@ -389,6 +389,10 @@ class RectModel(FrameModel):
     input_names = RECT_INPUTS
     inputs = len(RECT_INPUTS)
     form_sizes: ClassVar[dict[str, str]] = {"half_width": "hw", "half_height": "hh"}
+    output_text: ClassVar[str] = (
+        "E / I in 1/length^2 (I: the rectangle's point-equivalent intensity along its normal, "
+        "I = w h L = 4 hw hh L; attenfit.RectEmitter: L = I / (w h))"
+    )
     light = "rect"
 
 

@@ -98,6 +98,10 @@ class TubeModel(FrameModel):
     input_names = TUBE_INPUTS
     inputs = len(TUBE_INPUTS)
     form_sizes: ClassVar[dict[str, str]] = {"half_length": "hl", "radius": "r"}
+    output_text: ClassVar[str] = (
+        "E / I in 1/length^2 (I: the tube's point-equivalent intensity, an end disk's along "
+        "its axis, I = pi r^2 L, r the tube's radius; attenfit.TubeEmitter)"
+    )
     light = "tube"
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from .._judge import EngineWitness
 from ._engine_area import AREA_KINDS, area_verdict
-from ._engine_search import Case, search
+from ._engine_search import Case, at_centre, search
 from ._engine_search import geometry as _geometry
 from ._engine_search import renders_as_spot as renders_as_spot
 from ._light_fits import LightData
@@ -62,7 +62,10 @@ def engine_verdict(
     """The engine's rendering of `props` judged at `x`, and its closest settings (module
     docstring). `size_prop`: the property through which a light's size reaches the diffuse
     term, tried at 0 and at `size_value`. `precision`: the scene's, every operation of
-    the engine's shading rounded to it (`EngineWitness.render`)."""
+    the engine's shading rounded to it (`EngineWitness.render`). The engine's point light
+    sits at the light's centre: a capsule is judged at its receivers' distances from it
+    (`at_centre`), not from its segment."""
+    x = at_centre(light, x)
     case = Case(w, light, x, *_geometry(light, x), precision)
     props = dict(props)
     mapped = case.worst(props)

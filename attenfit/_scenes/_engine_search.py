@@ -55,7 +55,7 @@ from .._judge import EngineWitness, engine_receiver_errors
 from ._light_fits import LightData
 from ._types import SceneLight
 
-__all__ = ["Case", "geometry", "renders_as_spot", "search"]
+__all__ = ["Case", "at_centre", "geometry", "renders_as_spot", "search"]
 
 #: grid values per property across its bounds (`_axes`)
 _N_EDGE, _N_SHAPE, _N_SIZE, _N_SPAN = 12, 10, 6, 5
@@ -74,6 +74,16 @@ def renders_as_spot(light: SceneLight) -> bool:
     """A spot, and a disk or a rectangle (their emission cosine: a cone is the engine's only
     way to it)."""
     return light.is_spot or light.kind in ("disk", "rect")
+
+
+def at_centre(light: SceneLight, x: LightData) -> LightData:
+    """`x` with each receiver's distance from the light's centre, where an engine's point
+    light sits and whence the engine renders it: a capsule's judged receivers carry their
+    distance to its segment (`LightData.d`), which no engine's point light sees."""
+    if light.kind != "capsule" or x.points is None:
+        return x
+    rel = x.points - np.asarray(light.position, np.float64)[None, :]
+    return dataclasses.replace(x, d=np.linalg.norm(rel, axis=1))
 
 
 def geometry(light: SceneLight, x: LightData) -> tuple[np.ndarray, np.ndarray]:

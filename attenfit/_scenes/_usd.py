@@ -24,7 +24,11 @@ Lights (UsdLux, https://openusd.org/release/api/usd_lux_page_front.html):
   semantics", no formula to model) or whose `inputs:shaping:ies:file` names a file.
 
 Intensity: the radiance is `inputs:intensity * 2^inputs:exposure` (UsdLux LightAPI); with
-`inputs:normalize` it is divided by the light's area (sphere 4 pi r^2, disk pi r^2). The
+`inputs:normalize` it is divided by the light's area (sphere 4 pi r^2, disk pi r^2). It is
+multiplied by `inputs:diffuse` (UsdLux LightAPI, default 1: "A multiplier for the effect of
+this light on the diffuse response of materials"; attenfit judges diffuse irradiance); a
+light of `inputs:diffuse` 0 lights no diffuse surface: skipped with a notice (refused with
+`strict`), and a negative one refused. The
 point-equivalent intensity attenfit takes is radiance x pi r^2 (a sphere's in every
 direction, a disk's along its axis). Colour and colour temperature are left out: they scale
 the truth and every curve alike (only `--threshold` compares absolute values, in the file's
@@ -240,10 +244,17 @@ def _not_modelled(prim, type_name: str, when: UsdTime, where: str) -> str | None
                 f"texture:file {path!r}: a textured rect light's emission varies over the "
                 "rectangle, which is not modelled (attenfit reads no other file)"
             )
+    olds: list[str] = []
+    diffuse = _diffuse(prim, where, when, olds)
+    if diffuse == 0:
+        return (
+            "inputs:diffuse 0: the light does not reach diffuse surfaces (UsdLux LightAPI: "
+            "'A multiplier for the effect of this light on the diffuse response of "
+            "materials'), and attenfit judges diffuse irradiance"
+        )
     if not shaped(prim):
         return None
     shaping = UsdLux.ShapingAPI(prim)
-    olds: list[str] = []
     focus = _number(light_input(prim, shaping.GetShapingFocusAttr(), olds), 0.0, where, when)
     if focus != 0:
         return (
@@ -300,13 +311,30 @@ def _number(attr, default: float, where: str, when: UsdTime) -> float:
     return float(v)
 
 
+def _diffuse(prim, where: str, when: UsdTime, olds: list[str]) -> float:
+    """The light's `inputs:diffuse` (pre-2021 `diffuse`; UsdLux LightAPI, default 1): a
+    factor on its diffuse effect, refused when negative."""
+    from pxr import UsdLux
+
+    attr = light_input(prim, UsdLux.LightAPI(prim).GetDiffuseAttr(), olds)
+    diffuse = _number(attr, 1.0, where, when)
+    if diffuse < 0:
+        raise BadValueError(
+            f"{where}: {attr.GetName()} {diffuse:g} is negative (a factor on the light's "
+            "diffuse effect: 0 to switch it off, 1 as authored)"
+        )
+    return diffuse
+
+
 def _readers(prim, when: UsdTime):
-    """`_usd_area`'s attribute readers `number(attr, default, where)` and `flag(attr, where)`:
-    `_number` and `_flag` at `when`, pre-2021 input names included."""
+    """`_usd_area`'s attribute readers `number(attr, default, where)`, `flag(attr, where)`
+    and `diffuse(where)`: `_number`, `_flag` and `_diffuse` at `when`, pre-2021 input names
+    included."""
     olds: list[str] = []
     return (
         lambda attr, default, where: _number(light_input(prim, attr, olds), default, where, when),
         lambda attr, where: _flag(light_input(prim, attr, olds), where, when),
+        lambda where: _diffuse(prim, where, when, olds),
     )
 
 
@@ -372,8 +400,8 @@ def _radius(prim, type_name, scale, where, radius_for, when, olds) -> float:
 
 
 def _intensity(prim, type_name, radius, where, when, olds) -> float:
-    """The point-equivalent intensity: radiance (`intensity x 2^exposure`, over the area
-    with `normalize`) x pi r^2."""
+    """The point-equivalent intensity: radiance (`intensity x 2^exposure x diffuse`, over
+    the area with `normalize`) x pi r^2."""
     from pxr import UsdLux
 
     lux = UsdLux.LightAPI(prim)
@@ -382,11 +410,12 @@ def _intensity(prim, type_name, radius, where, when, olds) -> float:
     intensity = _number(i_attr, 1.0, where, when)
     exposure = _number(e_attr, 0.0, where, when)
     normalize = _flag(light_input(prim, lux.GetNormalizeAttr(), olds), where, when)
+    diffuse = _diffuse(prim, where, when, olds)  # > 0: a light of 0 is skipped before
     area = (4.0 if type_name == "SphereLight" else 1.0) * math.pi * radius**2
     if not intensity > 0:
         raise BadValueError(f"{where}: intensity {intensity:g} is not positive (a dark light)")
     # radiance x pi r^2; in logarithms first: 2^exposure alone may overflow
-    log2 = math.log2(intensity) + exposure + math.log2(math.pi * radius**2)
+    log2 = math.log2(intensity) + exposure + math.log2(diffuse * math.pi * radius**2)
     log2 -= math.log2(area) if normalize else 0.0
     if not -1000 < log2 < 1000:
         raise BadValueError(
@@ -395,7 +424,7 @@ def _intensity(prim, type_name, radius, where, when, olds) -> float:
         )
     if abs(exposure) >= 1000:
         return 2.0**log2
-    intensity *= 2.0**exposure
+    intensity *= 2.0**exposure * diffuse
     intensity = intensity / area if normalize else intensity
     return intensity * math.pi * radius**2
 

@@ -15,10 +15,11 @@ UsdLux (https://openusd.org/release/api/usd_lux_page_front.html):
   `inputs:radius`.
 
 Intensity as for sphere and disk lights (`_usd`): the radiance is `inputs:intensity x
-2^inputs:exposure`, divided by the emitting area with `inputs:normalize` (the rectangle's
-`w h`; the cylinder's side, `2 pi r l`, UsdLux: "the light's surface area"), and the
-point-equivalent intensity the emitters take is the radiance times `w h` (rectangle: its
-intensity along the normal) or `pi r^2` (tube: attenfit's convention `L = I / (pi r^2)`).
+2^inputs:exposure x inputs:diffuse`, divided by the emitting area with `inputs:normalize`
+(the rectangle's `w h`; the cylinder's side, `2 pi r l`, UsdLux: "the light's surface
+area"), and the point-equivalent intensity the emitters take is the radiance times `w h`
+(rectangle: its intensity along the normal) or `pi r^2` (tube: attenfit's convention
+`L = I / (pi r^2)`).
 
 Refused with a reason (skipped with a notice unless `--strict`, like the light types
 attenfit does not model): a `ShapingAPI` cone narrower than the hemisphere or a
@@ -59,16 +60,16 @@ def _axes(m: np.ndarray, mpu: float, where: str) -> tuple[np.ndarray, np.ndarray
     return m[3, :3] * mpu, m[:3, :3] / raw[:, None], raw * mpu
 
 
-def _intensity(
-    prim, UsdLux, number: Callable, flag: Callable, where: str, area: float, lit: float
-) -> float:
-    """The point-equivalent intensity: radiance x `lit` (the radiance over `area` if normalised)."""
+def _intensity(prim, UsdLux, readers, where: str, area: float, lit: float) -> float:
+    """The point-equivalent intensity: radiance x `lit` (the radiance over `area` if
+    normalised), times `inputs:diffuse`."""
+    number, flag, diffuse = readers
     lux = UsdLux.LightAPI(prim)
     intensity = number(lux.GetIntensityAttr(), 1.0, where)
     exposure = number(lux.GetExposureAttr(), 0.0, where)
     if not intensity > 0:
         raise BadValueError(f"{where}: intensity {intensity:g} is not positive (a dark light)")
-    log2 = math.log2(intensity) + exposure + math.log2(lit)
+    log2 = math.log2(intensity) + exposure + math.log2(lit * diffuse(where))
     log2 -= math.log2(area) if flag(lux.GetNormalizeAttr(), where) else 0.0
     if not -1000 < log2 < 1000:
         raise BadValueError(
@@ -105,7 +106,8 @@ def _check_shaping(prim, UsdLux, number: Callable, where: str) -> None:
         )
 
 
-def _rect(prim, m, mpu, where, UsdLux, number, flag) -> tuple[dict[str, Any], str]:
+def _rect(prim, m, mpu, where, UsdLux, readers) -> tuple[dict[str, Any], str]:
+    number = readers[0]
     api = UsdLux.RectLight(prim)
     w_local = number(api.GetWidthAttr(), 1.0, where)
     h_local = number(api.GetHeightAttr(), 1.0, where)
@@ -122,13 +124,14 @@ def _rect(prim, m, mpu, where, UsdLux, number, flag) -> tuple[dict[str, Any], st
         size=(w, h),
         normal=tuple(float(x) for x in normal / np.linalg.norm(normal)),
         tangent=tuple(float(x) for x in axes[0]),
-        intensity=_intensity(prim, UsdLux, number, flag, where, w * h, w * h),
+        intensity=_intensity(prim, UsdLux, readers, where, w * h, w * h),
         position=tuple(float(x) for x in centre),
     )
     return kw, "RectLight"
 
 
-def _cylinder(prim, m, mpu, where, UsdLux, number, flag) -> tuple[dict[str, Any], str]:
+def _cylinder(prim, m, mpu, where, UsdLux, readers) -> tuple[dict[str, Any], str]:
+    number = readers[0]
     api = UsdLux.CylinderLight(prim)
     l_local = number(api.GetLengthAttr(), 1.0, where)
     r_local = number(api.GetRadiusAttr(), 0.5, where)
@@ -148,7 +151,7 @@ def _cylinder(prim, m, mpu, where, UsdLux, number, flag) -> tuple[dict[str, Any]
         radius=radius,
         length=length,
         axis=tuple(float(x) for x in axes[0]),
-        intensity=_intensity(prim, UsdLux, number, flag, where, side, math.pi * radius**2),
+        intensity=_intensity(prim, UsdLux, readers, where, side, math.pi * radius**2),
         position=tuple(float(x) for x in centre),
     )
     return kw, "CylinderLight"
@@ -160,11 +163,11 @@ def area_light(
     """The `SceneLight` of a `RectLight` or `CylinderLight` prim with world transform `m` (row
     vectors) and `metersPerUnit` `mpu`, and the kind to report; none, with a notice, for
     settings attenfit does not model (the module docstring; refused when `strict`).
-    `readers` are `_usd`'s `number(attr, default, where)` and `flag(attr, where)`."""
-    number, flag = readers
+    `readers` are `_usd`'s `number(attr, default, where)`, `flag(attr, where)` and
+    `diffuse(where)` (`inputs:diffuse`, a factor on the intensity)."""
     read = _rect if type_name == "RectLight" else _cylinder
     try:
-        kw, kind = read(prim, m, mpu, where, UsdLux, number, flag)
+        kw, kind = read(prim, m, mpu, where, UsdLux, readers)
     except NotModelled as exc:
         if strict:
             raise BadValueError(f"{exc}; --strict refuses it") from None
