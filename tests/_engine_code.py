@@ -147,7 +147,8 @@ def filament(p, d, c, nl, spot):
         outer = max(inner, min(abs(p["spot_outer"]), math.pi / 2))
         co, ci = _fast_cos(outer), _fast_cos(inner)
         scale = _f32(1.0 / max(1.0 / 1024.0, ci - co))
-        f *= _clamp01(c * scale - co * scale) ** 2
+        offset = _f32(-co * scale)  # stored as a float, as scale is
+        f *= _clamp01(c * scale + offset) ** 2
     return f * _lambert(nl)
 
 
@@ -161,7 +162,7 @@ def bevy(p, d, c, nl, spot):
         co = _f32(math.cos(p["outer_angle"]))
         ci = _f32(math.cos(p.get("inner_angle", 0.0)))
         scale = _f32(1.0 / max(ci - co, 1e-4))
-        f *= _clamp01(c * scale - co * scale) ** 2
+        f *= _clamp01(c * scale + _f32(-co * scale)) ** 2  # the offset: a float too
     return f * _lambert(nl)
 
 
@@ -175,7 +176,7 @@ def unity(p, d, c, nl, spot):
         co = _f32(math.cos(math.radians(p["spotAngle"]) / 2.0))
         ci = _f32(math.cos(math.radians(p.get("innerSpotAngle", 0.0)) / 2.0))
         inv = _f32(1.0 / max(0.001, ci - co))
-        f *= _clamp01(c * inv - co * inv) ** 2
+        f *= _clamp01(c * inv + _f32(-co * inv)) ** 2  # y = -cosOuter invAngleRange: a float
     return f * _lambert(nl)
 
 
@@ -192,7 +193,7 @@ def gltf(p, d, c, nl, spot):
         co = _f32(math.cos(p["outerConeAngle"]))
         ci = _f32(math.cos(p.get("innerConeAngle", 0.0)))
         scale = _f32(1.0 / max(0.001, ci - co))
-        f *= _clamp01(c * scale - co * scale) ** 2
+        f *= _clamp01(c * scale + _f32(-co * scale)) ** 2  # the offset: a float too
     return f * _lambert(nl)
 
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 from _engine_code import RENDER, engine_rendered_errors
 
@@ -73,6 +74,26 @@ def _check_claims(engine: str, answers) -> int:
             if c.status == "pass":
                 assert rendered <= 1.05 * ans.imported.scene.tolerance, where
             n += 1
+        n += _check_area_claims(scene_name, ans, engine)
+    return n
+
+
+def _check_area_claims(scene_name: str, ans, engine: str) -> int:
+    """The answers that are the engine's own area light, re-rendered through the engine's
+    area code transcribed in tests/test_engine_area.py; returns how many."""
+    from test_engine_area import _judged, _rerender
+
+    n = 0
+    for c in ans.choices:
+        if c.engine_error is None or "light_type" not in c.properties:
+            continue
+        light, p, nrm, E_true, denom = _judged(ans, c)
+        rendered = float(np.max(np.abs(_rerender(light, c.properties, p, nrm) - E_true) / denom))
+        where = f"{scene_name}: {c.name}: {engine} {c.properties['light_type']}"
+        assert c.engine_error == pytest.approx(rendered, rel=0.05, abs=1e-4), where
+        if c.status == "pass":
+            assert rendered <= 1.05 * ans.imported.scene.tolerance, where
+        n += 1
     return n
 
 
