@@ -41,6 +41,7 @@ from ._input import read_capped
 
 __all__ = [
     "LIMITS",
+    "cached_array",
     "clear",
     "code_version",
     "fingerprint",
@@ -303,6 +304,22 @@ def write_array(kind: str, key: str, value: Any) -> bool:
     buf = io.BytesIO()
     np.save(buf, np.asarray(value), allow_pickle=False)
     return write(kind, key, buf.getvalue())
+
+
+def cached_array(kind: str, parts: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+    """The float array `compute()` returns, from the cache when this code version computed it
+    for the same `parts` (its exact inputs: `fingerprint`) before; else computed and cached.
+    For what is a function of its inputs alone (an exact irradiance at given receivers): an
+    unchanged question asked again runs no program for it."""
+    import numpy as np
+
+    key = fingerprint(*parts)
+    value = read_array(kind, key)
+    if value is None:
+        value = np.asarray(compute())
+        if value.dtype.kind == "f":
+            write_array(kind, key, value)
+    return value
 
 
 def _make_folders(target: Path) -> None:

@@ -50,6 +50,7 @@ class Progress:
         self.live = not quiet and _isatty(self.stream)
         self.clock = clock
         self.start = clock()
+        self.noted: set[str] = set()  # remarks said as stage lines (`note`)
 
     def elapsed(self) -> float:
         return self.clock() - self.start
@@ -181,19 +182,24 @@ def done(text: str) -> None:
 
 
 def note(text: str) -> None:
-    """A remark on the work under way: beside the current bar, else as a stage line."""
+    """A remark on the work under way: beside the current bar, else as a stage line (each
+    distinct remark once a command)."""
     bar = _BAR.get()
     if bar is not None:
         bar.note(text)
-    else:
-        stage(text)
+        return
+    progress = _CURRENT.get()
+    if progress is not None and text not in progress.noted:
+        progress.noted.add(text)
+        progress.stage(text)
 
 
 @contextlib.contextmanager
-def count(total: int, text: str) -> Iterator[Any]:
-    """A bar on the current command's `Progress` (a no-op without one); yields `.update()`."""
+def count(total: int, text: str, *, show: bool = True) -> Iterator[Any]:
+    """A bar on the current command's `Progress` (a no-op without one, or with `show` off:
+    then its `update` is only an interrupt check point); yields `.update()`."""
     progress = _CURRENT.get()
-    if progress is None:
+    if progress is None or not show:
         yield _NoBar()
         return
     with progress.count(total, text) as bar:

@@ -32,6 +32,7 @@ from typing import Any, ClassVar, NamedTuple
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
@@ -256,7 +257,7 @@ class AreaModel(Model):
 
     def evaluate(self, x: Float[ArrayLike, " k *shape"]) -> Float[Array, "*shape"]:
         """`E / I` from the stacked inputs (`AreaInputs.stack()`), rows in `input_names` order."""
-        x = jnp.asarray(x)
+        x = np.asarray(x) if not isinstance(x, jax.core.Tracer) else x  # rows sliced on the host
         return self(*(x[k] for k in range(len(type(self).input_names))))
 
 

@@ -26,6 +26,7 @@ from typing import Any
 import jax
 import numpy as np
 
+from .. import _cache
 from .._curves import AreaModel, get_area_model, list_area_models
 from .._errors import AttenfitError
 from .._fit import fit
@@ -150,9 +151,14 @@ def _facing_curve(light: Any) -> Any:
         # clear of the surface (`facing_sweep` refuses receivers float32 cannot place)
         # (2^-16 of the sweep's 1e4 r scale: 0.15% of r past the surface; 1.0001 r was refused)
         d_min = (0.01 if isinstance(light, RectEmitter) else 1.01) * r
-        ds = facing_sweep(light, d_min, 1e4 * r, 512, dtype=np.float64)
-        ld, lf = np.log(ds.distance()), np.log(ds.attenuation())
-        return lambda d: np.exp(np.interp(np.log(np.maximum(d, ds.distance()[0])), ld, lf))
+
+        def sweep() -> np.ndarray:
+            ds = facing_sweep(light, d_min, 1e4 * r, 512, dtype=np.float64)
+            return np.stack([ds.distance(), ds.attenuation()])
+
+        dist, att = _cache.cached_array("values", ("facing-curve", light, d_min), sweep)
+        ld, lf = np.log(dist), np.log(att)
+        return lambda d: np.exp(np.interp(np.log(np.maximum(d, dist[0])), ld, lf))
     return lambda d: 1 / np.maximum(d, r) ** 2
 
 
@@ -235,7 +241,7 @@ def escalate(
             for variant, fitted in _variants(m, inputs, datas):
                 errs = []
                 for (stacked, intensity), x in zip(inputs, datas, strict=True):
-                    pred = intensity * np.asarray(variant.evaluate(stacked), dtype=np.float64)
+                    pred = intensity * _evaluated(variant, stacked)
                     errs.append(float(np.max(np.abs(pred - x.E_true) / x.denom)))
                 e = max(errs)
                 ok = math.isfinite(e) and e <= scene.tolerance
@@ -259,6 +265,18 @@ def escalate(
     shaders = _shaders(winner, truths) if winner else {}
     lights, tol = tuple(t.light for t in truths), float(scene.tolerance)
     return AreaEscalation(why, (*passing, *failing), winner, closest, label, shaders, tol, lights)
+
+
+def _evaluated(model: AreaModel, stacked: np.ndarray) -> np.ndarray:
+    """`model` at the stacked inputs, in float64; for attenfit's own models, from attenfit's
+    cache when this code evaluated the same model at the same inputs before."""
+
+    def compute() -> np.ndarray:
+        return np.asarray(model.evaluate(stacked), dtype=np.float64)
+
+    if not type(model).__module__.startswith("attenfit."):
+        return compute()
+    return _cache.cached_array("values", ("area-model", model, stacked), compute)
 
 
 def _variants(

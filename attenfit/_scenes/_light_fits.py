@@ -168,7 +168,9 @@ def fit_families(requests: Sequence[Request]) -> list[Fitted | AttenfitError]:
         key = group_of(member(cls, plans[0][1]))
         n = _bucket(max(len(x.d) for x in datas), 64)
         groups.setdefault((key, n) if key is not None else ("alone", i), []).append(i)
-    with _progress.count(len(groups), f"{len(groups)} solves") as bar:
+    # a bar for several solves; one (a light's range trade, a spot's falloff) goes under the
+    # caller's stage line, which a bar of one would repeat for every call
+    with _progress.count(len(groups), f"{len(groups)} solves", show=len(groups) > 1) as bar:
         for (key, n), idx in groups.items():
             if key == "alone":
                 out[n] = _fit_alone(*requests[n])
@@ -176,6 +178,7 @@ def fit_families(requests: Sequence[Request]) -> list[Fitted | AttenfitError]:
                 _solve(key, n, [(i, requests[i]) for i in idx], out)
             bar.update()
     return out  # type: ignore[return-value]
+
 
 
 def _solve(members, n: int, requests, out) -> None:

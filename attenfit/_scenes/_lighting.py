@@ -25,9 +25,11 @@ import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _cache
 from .._curves import spot_frostbite, spot_threejs
 from .._errors import BadValueError
 from .._truth import (
@@ -183,7 +185,11 @@ def spot_profile(light: SceneLight, theta: np.ndarray) -> np.ndarray:
     assert tu is not None and tp is not None
     if light.profile in ("frostbite", "threejs"):
         fn = spot_frostbite if light.profile == "frostbite" else spot_threejs
-        return np.asarray(fn(jnp.asarray(np.cos(theta)), tu, tp), dtype=np.float64)
+        return _cache.cached_array(
+            "values",
+            ("spot-profile", light.profile, theta, tu, tp),
+            lambda: np.asarray(fn(jnp.asarray(np.cos(theta)), tu, tp), dtype=np.float64),
+        )
     if tu - tp < 1e-9:
         return (theta < tu).astype(np.float64)
     if light.profile == "linear":
@@ -250,7 +256,11 @@ def _receivers_of(
 
 def _exact(scene: Scene, i: int, em: AbstractEmitter, pts: np.ndarray, nrm: np.ndarray) -> Dataset:
     """The light's exact irradiance at the receivers, as a dataset in JAX's default float."""
-    E = np.asarray(irradiance(em, jnp.asarray(pts), jnp.asarray(nrm)), dtype=np.float64)
+    E = _cache.cached_array(
+        "values",
+        ("scene-irradiance", em, pts, nrm, jax.config.jax_enable_x64),
+        lambda: np.asarray(irradiance(em, jnp.asarray(pts), jnp.asarray(nrm)), np.float64),
+    )
     if not np.all(np.isfinite(E)):  # a bug, not a user error: receivers inside were removed
         raise RuntimeError(f"irradiance is not finite at a receiver of light {i}")
     dtype = np.asarray(jnp.zeros(())).dtype

@@ -1,6 +1,13 @@
 """Validation of emitter fields and receiver arrays, and the vector helpers the truth stage
 shares (`_emitters`, `_rect`, `_tube`, `_irradiance`, `_geometry`): eager checks of concrete
-values (traced values are let through), stable normalisation, and guarded norms."""
+values (traced values are let through), stable normalisation, and guarded norms.
+
+The helpers compute in numpy on concrete values and in `jax.numpy` on traced ones
+(`array_module`): an emitter's fields and the point-light geometry at a scene's receivers
+are host arithmetic, and each `jax.numpy` call outside a compiled program is a program of
+its own, which a fresh process traces, lowers and loads from JAX's cache one by one (about
+a hundred of them were most of a warm `attenfit scene` of a tube light: docs/performance.md).
+"""
 
 from __future__ import annotations
 
@@ -20,6 +27,11 @@ def _is_traced(x: Any) -> bool:
     return isinstance(x, jax.core.Tracer)
 
 
+def array_module(*xs: Any) -> Any:
+    """`jax.numpy` when any of `xs` is traced (inside `jit`, `grad`, `vmap`), else numpy."""
+    return jnp if any(_is_traced(x) for x in xs) else np
+
+
 def _float_dtype(x: Any) -> Any:
     """The float dtype to store `x` in: its own if floating, else JAX's default float."""
     dt = getattr(x, "dtype", None)
@@ -29,7 +41,8 @@ def _float_dtype(x: Any) -> Any:
 
 
 def _check_real(name: str, x: Any, shape: tuple[int, ...]) -> Any:
-    """Check a concrete real value of `shape`; return it as a JAX array."""
+    """Check a concrete real value of `shape`; return it as a numpy array of its float dtype
+    (a traced value as it is)."""
     if _is_traced(x):
         return x
     if isinstance(x, str | bytes) or x is None:
@@ -52,7 +65,7 @@ def _check_real(name: str, x: Any, shape: tuple[int, ...]) -> Any:
         cast = arr.astype(dt)  # numpy, so this check also runs while jit is tracing
     if not np.all(np.isfinite(cast)):
         raise BadValueError(f"{name} = {arr.tolist()} overflows {np.dtype(dt)}")
-    return jnp.asarray(x, dtype=dt)
+    return cast
 
 
 def _check_positive(name: str, x: Any) -> Any:
@@ -80,9 +93,10 @@ def _check_radius(name: str, x: Any) -> Any:
 def _normalise(v: Array) -> Array:
     """`v / |v|` along the last axis, scaled to the order of 1 first: the squares of a normal
     like [0, 0, 1e-200] underflow (and of [1e300, 0, 0] overflow) before the square root."""
-    m = jnp.max(jnp.abs(v), axis=-1, keepdims=True)
-    v = v / jnp.where(m > 0, m, 1)
-    return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
+    xp = array_module(v)
+    m = xp.max(xp.abs(v), axis=-1, keepdims=True)
+    v = v / xp.where(m > 0, m, 1)
+    return v / xp.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def _unit(name: str, x: Any) -> Any:
@@ -94,14 +108,15 @@ def _unit(name: str, x: Any) -> Any:
 
 
 def _dot(a: Array, b: Array) -> Array:
-    return jnp.sum(a * b, axis=-1)
+    return array_module(a, b).sum(a * b, axis=-1)
 
 
 def _safe_norm(v: Array) -> Array:
     """|v| over the last axis, with gradient 0 (not NaN) at v = 0."""
+    xp = array_module(v)
     n2 = _dot(v, v)
     pos = n2 > 0
-    return jnp.where(pos, jnp.sqrt(jnp.where(pos, n2, 1)), 0)
+    return xp.where(pos, xp.sqrt(xp.where(pos, n2, 1)), 0)
 
 
 def _real_input(name: str, x: Any) -> Any:
@@ -124,8 +139,9 @@ def _real_input(name: str, x: Any) -> Any:
 
 def _receivers(points: ArrayLike, normals: ArrayLike) -> tuple[Array, Array]:
     """Points and unit normals as float arrays of one dtype, broadcast to one shape [..., 3]."""
-    p = jnp.asarray(_real_input("points", points))
-    n = jnp.asarray(_real_input("normals", normals))
+    xp = array_module(points, normals)
+    p = xp.asarray(_real_input("points", points))
+    n = xp.asarray(_real_input("normals", normals))
     dt = _float_dtype(p) if jnp.issubdtype(p.dtype, jnp.floating) else _float_dtype(n)
     p = p.astype(dt)
     n = n.astype(dt)
@@ -139,12 +155,13 @@ def _receivers(points: ArrayLike, normals: ArrayLike) -> tuple[Array, Array]:
         raise BadValueError(
             f"points {p.shape} and normals {n.shape} must have the same (or broadcastable) shapes"
         ) from None
-    p = jnp.broadcast_to(p, shape)
-    n = jnp.broadcast_to(n, shape)
+    p = xp.broadcast_to(p, shape)
+    n = xp.broadcast_to(n, shape)
     return p, _normalise(n)
 
 
 def _bcast(x: Array, like: Array) -> Array:
     """An emitter vector field (3,) cast to `like`'s dtype and rank (explicit, for strict rank promotion)."""
-    x = jnp.asarray(x).astype(like.dtype)
-    return jnp.broadcast_to(x, like.shape[:-1] + x.shape[-1:])
+    xp = array_module(x, like)
+    x = xp.asarray(x).astype(like.dtype)
+    return xp.broadcast_to(x, like.shape[:-1] + x.shape[-1:])

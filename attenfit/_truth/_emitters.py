@@ -22,7 +22,6 @@ from collections.abc import Mapping
 from typing import Any, ClassVar
 
 import equinox as eqx
-import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, ArrayLike, Float
 
@@ -36,6 +35,7 @@ from ._emitter_checks import (
     _receivers,
     _safe_norm,
     _unit,
+    array_module,
 )
 
 
@@ -171,7 +171,7 @@ class AbstractCentredEmitter(AbstractEmitter):
         return self.center
 
     def closest_point(self, points):
-        return _bcast(self.reference_point(), jnp.asarray(points))
+        return _bcast(self.reference_point(), array_module(points).asarray(points))
 
     def core_distance(self, pts):
         return np.linalg.norm(pts - _f64(self.center), axis=1)
@@ -195,13 +195,14 @@ class AbstractFlatEmitter(AbstractCentredEmitter):
         """Distance to the centre and `I * g * max(0, n.l)`, `g = max(0, m.(p - c)/d)`
         (`|.|` if two-sided); the weight is 0 at `d = 0`."""
         p, n = _receivers(points, normals)
+        xp = array_module(p, self.center, self.normal, self.intensity)
         dv = _bcast(self.center, p) - p
         d = _safe_norm(dv)
-        dsafe = jnp.where(d > 0, d, 1)
+        dsafe = xp.where(d > 0, d, 1)
         cos_r = _dot(n, dv) / dsafe
         cos_e = -_dot(_bcast(self.normal, p), dv) / dsafe
-        g = jnp.abs(cos_e) if self.two_sided else jnp.maximum(cos_e, 0)
-        return d, self.intensity.astype(p.dtype) * g * jnp.maximum(cos_r, 0)
+        g = xp.abs(cos_e) if self.two_sided else xp.maximum(cos_e, 0)
+        return d, xp.asarray(self.intensity).astype(p.dtype) * g * xp.maximum(cos_r, 0)
 
     @property
     def solid_radius(self) -> float:
@@ -219,14 +220,15 @@ class AbstractFlatEmitter(AbstractCentredEmitter):
     def area_factors(self, p, n, dv, dsafe, cos_r, r):
         """`cos_e = m.(p - c)/d` (negative behind a one-sided light), `cos_n = -n.m`,
         `g = max(0, cos_e)`; two-sided: read from the face the receiver sees."""
+        xp = array_module(p, n, dv, self.normal)
         m = _bcast(self.normal, p)
         cos_e = -_dot(m, dv) / dsafe
         cos_n = -_dot(n, m)
         if self.two_sided:
-            one = jnp.ones_like(dsafe)
-            flip = jnp.where(cos_e < 0, -one, one)
+            one = xp.ones_like(dsafe)
+            flip = xp.where(cos_e < 0, -one, one)
             cos_e, cos_n = cos_e * flip, cos_n * flip
-        return cos_e, cos_n, jnp.maximum(cos_e, 0)
+        return cos_e, cos_n, xp.maximum(cos_e, 0)
 
 
 class AbstractSegmentEmitter(AbstractEmitter):
@@ -243,11 +245,12 @@ class AbstractSegmentEmitter(AbstractEmitter):
 
     def closest_point(self, points: Float[ArrayLike, "*b 3"]) -> Float[Array, "*b 3"]:
         """The point of the segment closest to each of `points`."""
-        p = jnp.asarray(points)
+        xp = array_module(points, self.a, self.b)
+        p = xp.asarray(points)
         a = _bcast(self.a, p)
         ab = _bcast(self.b, p) - a
         den = _dot(ab, ab)
-        t = jnp.clip(_dot(p - a, ab) / jnp.where(den > 0, den, 1), 0, 1)
+        t = xp.clip(_dot(p - a, ab) / xp.where(den > 0, den, 1), 0, 1)
         return a + t[..., None] * ab
 
     def core_distance(self, pts):
@@ -284,10 +287,11 @@ class AbstractSegmentEmitter(AbstractEmitter):
     def area_factors(self, p, n, dv, dsafe, cos_r, r):
         """`cos_e = 1`, `cos_n = cos_r` (a sphere at the closest point) and `g` the
         projected-area factor (`projected_factor`) towards the closest point."""
+        xp = array_module(p, dv, self.a, self.b)
         ab = _bcast(self.b, p) - _bcast(self.a, p)
         l = dv / dsafe[..., None]
-        sin_psi = _safe_norm(jnp.cross(l, ab))  # |b - a| sin(psi)
-        return jnp.ones_like(dsafe), cos_r, self.projected_factor(l, ab, sin_psi, r)
+        sin_psi = _safe_norm(xp.cross(l, ab))  # |b - a| sin(psi)
+        return xp.ones_like(dsafe), cos_r, self.projected_factor(l, ab, sin_psi, r)
 
     @abc.abstractmethod
     def projected_factor(self, l: Array, ab: Array, sin_psi: Array, r: Array) -> Array:
@@ -317,10 +321,11 @@ class SphereEmitter(AbstractCentredEmitter):
     def point_light(self, points, normals):
         """Distance to the centre and `I * max(0, n.l)`, `l` the unit vector to the centre."""
         p, n = _receivers(points, normals)
+        xp = array_module(p, self.center, self.intensity)
         dv = _bcast(self.center, p) - p
         d = _safe_norm(dv)
-        cos = _dot(n, dv) / jnp.where(d > 0, d, 1)
-        return d, self.intensity.astype(p.dtype) * jnp.maximum(cos, 0)
+        cos = _dot(n, dv) / xp.where(d > 0, d, 1)
+        return d, xp.asarray(self.intensity).astype(p.dtype) * xp.maximum(cos, 0)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -352,7 +357,7 @@ class SphereEmitter(AbstractCentredEmitter):
 
     def area_factors(self, p, n, dv, dsafe, cos_r, r):
         """The disk that faces the receiver: `cos_e = 1`, `cos_n = cos_r`, `g = 1`."""
-        one = jnp.ones_like(dsafe)
+        one = array_module(dsafe).ones_like(dsafe)
         return one, cos_r, one
 
     light_frame = _no_frame
@@ -455,16 +460,17 @@ class CapsuleEmitter(AbstractSegmentEmitter):
         over `pi r^2` (`psi` the angle between `l` and the axis).
         """
         p, n = _receivers(points, normals)
+        xp = array_module(p, self.a, self.b, self.radius, self.intensity)
         dv = self.closest_point(p) - p
         d = _safe_norm(dv)
-        dsafe = jnp.where(d > 0, d, 1)
+        dsafe = xp.where(d > 0, d, 1)
         l = dv / dsafe[..., None]
         ab = _bcast(self.b, p) - _bcast(self.a, p)
-        sin_psi = _safe_norm(jnp.cross(l, ab))  # = |ab| sin(psi)
-        r = self.radius.astype(p.dtype)
+        sin_psi = _safe_norm(xp.cross(l, ab))  # = |ab| sin(psi)
+        r = xp.asarray(self.radius).astype(p.dtype)
         g = 1 + 2 * sin_psi / (math.pi * r)
         cos_r = _dot(n, l)
-        return d, self.intensity.astype(p.dtype) * g * jnp.maximum(cos_r, 0)
+        return d, xp.asarray(self.intensity).astype(p.dtype) * g * xp.maximum(cos_r, 0)
 
     def to_dict(self) -> dict[str, Any]:
         return {

@@ -8,12 +8,13 @@ turns a model's `E / I` into irradiance at those receivers.
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 from jaxtyping import Array, ArrayLike, Float
 
 from .._curves import AREA_INPUTS, AreaInputs, AreaModel
 from .._errors import BadTypeError, BadValueError
-from ._emitter_checks import _bcast, _dot, _receivers, _safe_norm
+from ._emitter_checks import _bcast, _dot, _receivers, _safe_norm, array_module
 from ._emitters import AbstractEmitter, _kinds
 
 __all__ = ["area_inputs", "area_irradiance", "frame_inputs", "model_inputs"]
@@ -38,11 +39,12 @@ def area_inputs(
     if not isinstance(emitter, AbstractEmitter):
         raise BadTypeError(f"emitter must be an attenfit emitter, got {type(emitter).__name__}")
     p, n = _receivers(points, normals)
+    xp = array_module(p, *jax.tree_util.tree_leaves(emitter))
     dv = emitter.closest_point(p) - p
     d = _safe_norm(dv)
-    dsafe = jnp.where(d > 0, d, 1)
+    dsafe = xp.where(d > 0, d, 1)
     cos_r = _dot(n, dv) / dsafe
-    r = jnp.broadcast_to(jnp.asarray(emitter.radius).astype(p.dtype), d.shape)
+    r = xp.broadcast_to(xp.asarray(emitter.radius).astype(p.dtype), d.shape)
     cos_e, cos_n, g = emitter.area_factors(p, n, dv, dsafe, cos_r, r)
     return AreaInputs(d, cos_r, cos_e, r, cos_n, g)
 
@@ -66,11 +68,12 @@ def frame_inputs(
             f"frame inputs are for a RectEmitter or a TubeEmitter, got {type(emitter).__name__}"
         )
     c, ex, ez, sizes = emitter.light_frame(p.dtype)  # BadTypeError: a shape without a frame
-    rot = jnp.stack([ex, jnp.cross(ez, ex), ez])  # rows: the frame's axes
+    xp = array_module(p, c, ex, ez, *sizes)
+    rot = xp.stack([ex, xp.cross(ez, ex), ez])  # rows: the frame's axes
     q = (p - _bcast(c, p)) @ rot.T
     m = n @ rot.T
     shape = q.shape[:-1]
-    size = tuple(jnp.broadcast_to(v, shape) for v in sizes)
+    size = tuple(xp.broadcast_to(v, shape) for v in sizes)
     return (*(q[..., k] for k in range(3)), *(m[..., k] for k in range(3)), *size)
 
 

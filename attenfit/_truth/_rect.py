@@ -33,7 +33,15 @@ from jaxtyping import Array, ArrayLike, Float
 
 from .._curves import RECT_INPUTS
 from .._errors import BadValueError
-from ._emitter_checks import _check_positive, _check_real, _dot, _is_traced, _safe_norm, _unit
+from ._emitter_checks import (
+    _check_positive,
+    _check_real,
+    _dot,
+    _is_traced,
+    _safe_norm,
+    _unit,
+    array_module,
+)
 from ._emitters import AbstractFlatEmitter
 from ._irradiance import _one_minus_atan_ratio
 
@@ -77,20 +85,22 @@ class RectEmitter(AbstractFlatEmitter):
         self.normal = _unit("normal", normal)
         t = _unit("tangent", tangent)
         if not (_is_traced(t) or _is_traced(self.normal)):
-            along = float(jnp.abs(_dot(t, self.normal)))
+            along = float(np.abs(_dot(t, self.normal)))
             if along > 1 - 1e-6:
                 raise BadValueError(f"tangent {np.asarray(tangent).tolist()} is along the normal")
         t = t - _dot(t, self.normal) * self.normal  # the part in the rectangle's plane
-        self.tangent = t / jnp.linalg.norm(t)
+        xp = array_module(t)
+        self.tangent = t / xp.linalg.norm(t)
         self.width = _check_positive("width", width)
         self.height = _check_positive("height", height)
-        self.radius = jnp.sqrt(self.width * self.height / math.pi)
+        xp = array_module(self.width, self.height)
+        self.radius = xp.asarray(xp.sqrt(self.width * self.height / math.pi))
         self.intensity = _check_positive("intensity", intensity)
 
     @property
     def bitangent(self) -> Array:
         """`normal x tangent`, the rectangle's height axis."""
-        return jnp.cross(self.normal, self.tangent)
+        return array_module(self.normal, self.tangent).cross(self.normal, self.tangent)
 
     def corners(self) -> Float[Array, "4 3"]:
         """The four corners, counter-clockwise seen from the lit side."""
@@ -130,7 +140,8 @@ class RectEmitter(AbstractFlatEmitter):
 
 
 def _offsets(u: Array, v: Array, hw: Array, hh: Array) -> Float[Array, "4 3"]:
-    signs = jnp.asarray([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]], u.dtype)
+    xp = array_module(u, v, hw, hh)
+    signs = xp.asarray([[-1.0, -1.0], [1.0, -1.0], [1.0, 1.0], [-1.0, 1.0]], u.dtype)
     return signs[:, :1] * (hw * u)[None, :] + signs[:, 1:] * (hh * v)[None, :]
 
 

@@ -78,6 +78,7 @@ from ._emitter_checks import (
     _is_traced,
     _receivers,
     _safe_norm,
+    array_module,
 )
 from ._emitters import AbstractSegmentEmitter
 from ._irradiance import _disk_clipped, _disk_unclipped, _gauss_legendre, _safe_sqrt
@@ -149,16 +150,17 @@ class TubeEmitter(AbstractSegmentEmitter):
         """Distance to the centre and `I g max(0, n.l)`, `g = 2 l sin(psi) / (pi r) +
         caps |cos(psi)|`, `psi` the angle between the axis and `l` (the class docstring)."""
         p, n = _receivers(points, normals)
+        xp = array_module(p, self.a, self.b, self.radius, self.intensity)
         dv = _bcast(self.center, p) - p
         d = _safe_norm(dv)
-        l = dv / jnp.where(d > 0, d, 1)[..., None]
+        l = dv / xp.where(d > 0, d, 1)[..., None]
         ab = _bcast(self.b, p) - _bcast(self.a, p)
-        sin_l = _safe_norm(jnp.cross(l, ab))  # = l sin(psi)
-        r = self.radius.astype(p.dtype)
+        sin_l = _safe_norm(xp.cross(l, ab))  # = l sin(psi)
+        r = xp.asarray(self.radius).astype(p.dtype)
         g = 2 * sin_l / (_PI * r)
         if self.caps:
-            g = g + jnp.abs(_dot(l, ab)) / _safe_norm(ab)
-        return d, self.intensity.astype(p.dtype) * g * jnp.maximum(_dot(n, l), 0)
+            g = g + xp.abs(_dot(l, ab)) / _safe_norm(ab)
+        return d, xp.asarray(self.intensity).astype(p.dtype) * g * xp.maximum(_dot(n, l), 0)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -186,19 +188,20 @@ class TubeEmitter(AbstractSegmentEmitter):
 
     def projected_factor(self, l, ab, sin_psi, r):
         """`2 |b - a| sin(psi) / (pi r) + caps |cos(psi)|`, as `point_light`'s."""
-        cos_psi = jnp.abs(_dot(l, ab)) / _safe_norm(ab)
+        cos_psi = array_module(l, ab).abs(_dot(l, ab)) / _safe_norm(ab)
         return 2 * sin_psi / (_PI * r) + (cos_psi if self.caps else 0 * cos_psi)
 
     def light_frame(self, dtype):
         """Its centre, x along `a -> b`, z any unit vector across it (its models are
         symmetric about the axis); sizes: half length, radius."""
-        a, b = self.a.astype(dtype), self.b.astype(dtype)
+        xp = array_module(self.a, self.b, self.radius)
+        a, b = xp.asarray(self.a).astype(dtype), xp.asarray(self.b).astype(dtype)
         c, ab = (a + b) / 2, b - a
         ex = ab / _safe_norm(ab)
-        eye = jnp.eye(3, dtype=dtype)
-        ez = jnp.cross(ex, jnp.where(jnp.abs(ex[0]) < 0.9, eye[0], eye[1]))
+        eye = xp.eye(3, dtype=dtype)
+        ez = xp.cross(ex, xp.where(xp.abs(ex[0]) < 0.9, eye[0], eye[1]))
         ez = ez / _safe_norm(ez)
-        return c, ex, ez, (_safe_norm(ab) / 2, self.radius.astype(dtype))
+        return c, ex, ez, (_safe_norm(ab) / 2, xp.asarray(self.radius).astype(dtype))
 
 
 # ----------------------------------------------------------------------------- the frame
