@@ -139,6 +139,10 @@ def gram_and_norm(
     return ata, jnp.stack(out[len(pairs) : len(pairs) + k]), out[-1]
 
 
+#: Under `vmap`, up to this many parameters take a `jvp` each (`jacobian_rows`).
+_JVP_EACH_MAX = 3
+
+
 def jacobian_rows(
     fn: Callable, y: Float[Array, " k"], *args: Any, batched: bool = False
 ) -> tuple[Any, Any, list]:
@@ -152,14 +156,17 @@ def jacobian_rows(
     writes an expensive one (a division) to memory before the pass over the samples instead
     of fusing it into that pass; separately, each step is one fused pass, divisions repeated
     (1,000 polynomial fits of 256 samples: 4.8 -> 4.3 ms a solve back to back, 6.5 -> 5.7-6.2
-    ms right after other work).
+    ms right after other work). Past 3 parameters the batched tangents win again: a `jvp`
+    each is k copies of the model in the program (1,000 `spline` fits, 6 knots: 183 ms
+    against 247 ms, `python -m benchmarks fit`, same run; its solve compiles in 3.4 s against
+    4.4 s).
     """
     eye = jnp.eye(y.shape[0], dtype=y.dtype)
 
     def push(tangent):
         return jax.jvp(lambda v: fn(v, *args), (y,), (tangent,), has_aux=True)
 
-    if batched:
+    if batched and y.shape[0] <= _JVP_EACH_MAX:
         pushed = [push(tangent) for tangent in eye]
         out, _, aux = pushed[0]
         return out, aux, [row for _, row, _ in pushed]

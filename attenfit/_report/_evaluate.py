@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from .._shaders import compiled_cost, cost_table, precision
+from .._shaders import compiled_cost, cost_table, in_parallel, precision
 from . import _metrics as M
 from ._configs import Config
 from ._published import range_of
@@ -156,9 +156,10 @@ def family_costs(
             for n in names
         }
     out = {}
-    for n in names:
-        shader = compiled_cost(instances[n])
-        stable = compiled_cost(instances[n], form="stable")
+    both = in_parallel(
+        lambda n: (compiled_cost(instances[n]), compiled_cost(instances[n], form="stable")), names
+    )
+    for n, (shader, stable) in zip(names, both, strict=True):
         prec = {dt: precision(instances[n], dt) for dt in ("float32", "float16")}
         timed = (
             "; time: attenfit.cost.cost_table, float32, jitted, 65536 distances, median of 5 "

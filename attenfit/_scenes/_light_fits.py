@@ -180,7 +180,6 @@ def fit_families(requests: Sequence[Request]) -> list[Fitted | AttenfitError]:
     return out  # type: ignore[return-value]
 
 
-
 def _solve(members, n: int, requests, out) -> None:
     """Requests of one group in one solve (each alone where that fails: its own error)."""
     problems, owner = [], []

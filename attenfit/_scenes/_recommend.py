@@ -56,7 +56,7 @@ from .._curves import Family, get_family, list_families
 from .._errors import AttenfitError, BadTypeError, BadValueError
 from .._float64 import in_float64
 from .._judge import Contender, rank
-from .._shaders import LANGUAGES, export, measure_throughput, structural_cost
+from .._shaders import LANGUAGES, export, in_parallel, measure_throughput, structural_cost
 from ._advice import Candidate, Recommendation, pct
 from ._light_fits import (
     LightData,
@@ -277,15 +277,17 @@ def _fit_families(
 def _shader_costs(fitted: dict[str, _Fitted]) -> tuple[dict[str, float], str]:
     """Each fitted family's compiled cost (with the first light's parameters baked, or its
     defaults where those cannot be), and the label of how it was counted."""
-    costs: dict[str, float] = {}
-    cost_label = ""
-    for name, (models, _, _) in fitted.items():
+
+    def cost(item: tuple[str, _Fitted]) -> Any:
+        name, (models, _, _) = item
         try:
-            c = structural_cost(models[0])
+            return structural_cost(models[0])
         except (AttenfitError, ValueError):  # parameters a shader cannot bake (non-finite)
-            c = structural_cost(get_family(name)())
-        costs[name], cost_label = c.cost, c.label()
-    return costs, cost_label
+            return structural_cost(get_family(name)())
+
+    counted = in_parallel(cost, list(fitted.items()))
+    costs = {name: c.cost for name, c in zip(fitted, counted, strict=True)}
+    return costs, counted[-1].label() if counted else ""
 
 
 def _measured(fitted: dict[str, _Fitted]) -> dict[str, float]:

@@ -21,6 +21,7 @@ from ._compilers import CompilerError as CompilerError
 from ._compilers import compiled_cost as compiled_cost
 from ._compilers import compilers as compilers
 from ._compilers import cost_method as cost_method
+from ._compilers import in_parallel as in_parallel
 from ._compilers import structural_cost as structural_cost
 from ._cost import CATEGORIES as CATEGORIES
 from ._cost import SHADER_WEIGHTS as SHADER_WEIGHTS
