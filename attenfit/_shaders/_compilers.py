@@ -365,10 +365,17 @@ def sass_counts(cuda: str, fname: str) -> Compiled | None:
     tool = f"NVRTC {have['nvrtc']} --use_fast_math + ptxas {have['ptxas']} -O3 ({SASS_ARCH}) + {lister}"
 
     def run() -> tuple[int, dict[str, int]]:
-        classes = _diff(_sass_of(cuda, f"{fname}(d[i])"), _sass_of("", "d[i]"))
+        classes = _diff(_sass_of(cuda, f"{fname}(d[i])"), _sass_base())
         return sum(classes.values()), classes
 
     return _cached("sass", tool, cuda, run)
+
+
+@functools.cache
+def _sass_base() -> dict[str, int]:
+    """The counts of the kernel that stores its input, subtracted from every count: one
+    compile per process."""
+    return _sass_of("", "d[i]")
 
 
 # ----------------------------------------------------------------------------- a family

@@ -33,10 +33,11 @@ def array_module(*xs: Any) -> Any:
 
 
 def _float_dtype(x: Any) -> Any:
-    """The float dtype to store `x` in: its own if floating, else JAX's default float."""
+    """The float dtype to store `x` in: its own if floating, else JAX's default float; as JAX
+    would hold it (float64 is float32 while JAX's x64 mode is off)."""
     dt = getattr(x, "dtype", None)
     if dt is not None and jnp.issubdtype(dt, jnp.floating):
-        return dt
+        return jax.dtypes.canonicalize_dtype(dt)
     return jax.dtypes.canonicalize_dtype(jnp.float64)
 
 
