@@ -30,10 +30,14 @@ _HUNT = int(os.environ.get("ATTENFIT_FUZZ_SCALE", "1")) > 1
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "hunt" if _HUNT else "default"))
 
 
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """With pytest-xdist (`-n 2 --dist loadgroup`): keep each test module on one worker, so
     its module-scoped fixtures are built once; the docs' pages are independent of each other
-    and are spread over the workers."""
+    and are spread over the workers. First among the hooks: xdist reads the groups in its own
+    `pytest_collection_modifyitems`, and one run after it saw none (every module's tests went
+    to both workers, each building the module's fixtures: tests/test_architecture.py checks
+    the grouping)."""
     for item in items:
         if item.module.__name__ != "test_docs":
             item.add_marker(pytest.mark.xdist_group(item.module.__name__))

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import ast
 import importlib
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -353,3 +355,35 @@ def test_the_cli_names_every_engine_without_importing_the_scene_stage():
     from attenfit._scenes._engine import ENGINES
 
     assert ENGINE_NAMES == tuple(ENGINES)
+
+
+def test_the_suite_keeps_each_test_module_on_one_worker(tmp_path):
+    """`-n 2 --dist loadgroup` with this conftest's groups sends a module's tests to one
+    worker, so its module-scoped fixtures are built once. pytest 9.2 broke this silently
+    (pytest-xdist issue #1386: every module ran on both workers, the suite twice as long
+    from an empty cache); pyproject.toml keeps pytest below it until xdist follows."""
+    for name in ("a", "b"):
+        (tmp_path / f"test_{name}.py").write_text(
+            "import os\n\n"
+            + "".join(
+                f"def test_{k}():\n"
+                f"    with open('worker_{name}_{k}', 'w') as f:\n"
+                "        f.write(os.environ['PYTEST_XDIST_WORKER'])\n\n"
+                for k in range(6)
+            ),
+            encoding="utf-8",
+        )
+    here = Path(__file__).resolve().parent
+    (tmp_path / "conftest.py").write_text(
+        (here / "conftest.py").read_text(encoding="utf-8"), encoding="utf-8"
+    )
+    (tmp_path / "pytest.ini").write_text("[pytest]\n", encoding="utf-8")
+    proc = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-n", "2", "--dist", "loadgroup",
+         "-p", "no:cacheprovider", str(tmp_path)],
+        cwd=tmp_path, capture_output=True, text=True, timeout=300, check=False,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    for name in ("a", "b"):
+        workers = {(tmp_path / f"worker_{name}_{k}").read_text() for k in range(6)}
+        assert len(workers) == 1, f"test_{name}.py ran on {sorted(workers)}"

@@ -97,7 +97,8 @@ def _normalise(v: Array) -> Array:
     xp = array_module(v)
     m = xp.max(xp.abs(v), axis=-1, keepdims=True)
     v = v / xp.where(m > 0, m, 1)
-    return v / xp.linalg.norm(v, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore"):  # numpy as JAX: a zero vector is NaN, silently
+        return v / xp.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def _unit(name: str, x: Any) -> Any:
