@@ -52,10 +52,11 @@ def inputs():
     return generate.Inputs()
 
 
-#: Sections made from the full default report or the example scenes' recommendations (a few
-#: minutes from a cold cache): run with `pytest -m slow` or `python docs/generate.py --check`.
+#: Sections made from the full default report, its decision's worst-case searches or the
+#: example scenes' recommendations (a minute or more each from a cold cache): run with
+#: `pytest -m slow` or `python docs/generate.py --check`.
 HEAVY = {"report-decision", "report-decision-doc", "report-summary", "report-findings",
-         "example-scenes", "spirv-costs", "sass-costs"}  # fmt: skip
+         "area-worst", "example-scenes", "spirv-costs", "sass-costs"}  # fmt: skip
 
 
 @pytest.mark.parametrize(

@@ -43,6 +43,7 @@ from .._truth import (
 )
 from ._advice import pct
 from ._light_fits import LightData
+from ._lighting import bucketed
 from ._scene import Scene
 from ._types import LightTruth
 
@@ -272,7 +273,7 @@ def _evaluated(model: AreaModel, stacked: np.ndarray) -> np.ndarray:
     cache when this code evaluated the same model at the same inputs before."""
 
     def compute() -> np.ndarray:
-        return np.asarray(model.evaluate(stacked), dtype=np.float64)
+        return bucketed(model.evaluate, stacked).astype(np.float64)
 
     if not type(model).__module__.startswith("attenfit."):
         return compute()

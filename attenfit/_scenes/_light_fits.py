@@ -44,6 +44,7 @@ from ._family_solves import (
 from ._family_solves import (
     fit_plan as fit_plan,
 )
+from ._lighting import bucket, bucketed
 from ._scene import Scene
 from ._types import LightTruth
 
@@ -99,11 +100,6 @@ def light_data(scene: Scene, truth: LightTruth) -> LightData:
 
 
 # ----------------------------------------------------------------------------- fitting
-def _bucket(n: int, lo: int) -> int:
-    """The next power of two >= max(n, lo): padded shapes reuse compiled solves."""
-    return max(lo, 1 << max(0, (n - 1).bit_length()))
-
-
 #: Problems per group solve, at least (padded): a scene's and a range search's solves of
 #: one group then share one compiled program.
 _BATCH = 16
@@ -166,7 +162,7 @@ def fit_families(requests: Sequence[Request]) -> list[Fitted | AttenfitError]:
             ]
             continue
         key = group_of(member(cls, plans[0][1]))
-        n = _bucket(max(len(x.d) for x in datas), 64)
+        n = bucket(max(len(x.d) for x in datas), 64)
         groups.setdefault((key, n) if key is not None else ("alone", i), []).append(i)
     # a bar for several solves; one (a light's range trade, a spot's falloff) goes under the
     # caller's stage line, which a bar of one would repeat for every call
@@ -222,8 +218,8 @@ def _fit_alone_raising(
     free = plans[0][1]
     starts = [p[0] for p in plans]
     knots_kw = {"knots": tuple(starts[0]["knots"])} if cls.knots_param is not None else {}
-    n = _bucket(max(len(x.d) for x in datas), 64)
-    b = _bucket(len(datas), 2)
+    n = bucket(max(len(x.d) for x in datas), 64)
+    b = bucket(len(datas), 2)
     # pad the batch to b problems with copies of the first light (their results are dropped)
     rows = [*range(len(datas)), *([0] * (b - len(datas)))]
     probs = _problems(cls, [datas[k] for k in rows], [plans[k] for k in rows], n)
@@ -260,7 +256,8 @@ def shade(model: Family, x: np.ndarray, precision: str) -> np.ndarray:
     if values is not None:
         return values.astype(np.float64)
     if precision == "float32":
-        return np.asarray(float32_family(model)(jnp.asarray(x, jnp.float32)), dtype=np.float64)
+        f32 = float32_family(model)
+        return bucketed(lambda d: f32(jnp.asarray(d, jnp.float32)), x).astype(np.float64)
     raise AttenfitError(f"{model.name} has no shader form to evaluate in {precision}")
 
 
@@ -273,7 +270,7 @@ def _reference(model: Family, x: np.ndarray) -> np.ndarray:
     key = _cache.fingerprint(model, x, jax.config.jax_enable_x64) if own else None
     values = None if key is None else _cache.read_array("values", key)
     if values is None or values.shape != x.shape:
-        values = np.asarray(model(jnp.asarray(x)), dtype=np.float64)
+        values = bucketed(lambda d: model(jnp.asarray(d)), x).astype(np.float64)
         if key is not None:
             _cache.write_array("values", key, values)
     return values

@@ -22,8 +22,8 @@ irradiance times `g`. The profile is the scene's `profile`:
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import jax
 import jax.numpy as jnp
@@ -254,12 +254,34 @@ def _receivers_of(
     return pts, nrm, src
 
 
+def bucket(n: int, lo: int = 64) -> int:
+    """The next power of two >= max(n, lo)."""
+    return max(lo, 1 << max(0, (n - 1).bit_length()))
+
+
+def bucketed(fn: Callable[..., Any], *arrays: np.ndarray, axis: int = -1) -> np.ndarray:
+    """`fn(*arrays)` on the arrays padded along `axis` to a power of two (`bucket`) with
+    copies of their last entry, and cut back: a program is compiled per shape, so the lights
+    of every scene (and of a scene edited) with a similar number of receivers share one."""
+    n = arrays[0].shape[axis]
+    pad = bucket(n) - n
+    if pad == 0 or n == 0:
+        return np.asarray(fn(*arrays))
+
+    def padded(a: np.ndarray) -> np.ndarray:
+        last = np.take(a, [n - 1], axis=axis)
+        return np.concatenate([a, np.repeat(last, pad, axis=axis)], axis=axis)
+
+    out = np.asarray(fn(*map(padded, arrays)))
+    return np.take(out, np.arange(n), axis=axis)
+
+
 def _exact(scene: Scene, i: int, em: AbstractEmitter, pts: np.ndarray, nrm: np.ndarray) -> Dataset:
     """The light's exact irradiance at the receivers, as a dataset in JAX's default float."""
     E = _cache.cached_array(
         "values",
         ("scene-irradiance", em, pts, nrm, jax.config.jax_enable_x64),
-        lambda: np.asarray(irradiance(em, jnp.asarray(pts), jnp.asarray(nrm)), np.float64),
+        lambda: bucketed(lambda p, n: irradiance(em, p, n), pts, nrm, axis=0).astype(np.float64),
     )
     if not np.all(np.isfinite(E)):  # a bug, not a user error: receivers inside were removed
         raise RuntimeError(f"irradiance is not finite at a receiver of light {i}")
