@@ -30,26 +30,14 @@ _HUNT = int(os.environ.get("ATTENFIT_FUZZ_SCALE", "1")) > 1
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "hunt" if _HUNT else "default"))
 
 
-#: The test modules that take longest from an empty cache (measured with `--durations`),
-#: longest first: they start first (`--no-loadscope-reorder` keeps this order), so that the
-#: two workers end together, not one running the last long module alone while the other
-#: waits (a fresh run's last 4 minutes, before).
-LONGEST = ("test_scene_area_escalation", "test_solve_programs", "test_report", "test_tube",
-           "test_docs_generated", "test_examples", "test_interrupt", "test_engine_area",
-           "test_irradiance", "test_report_area_shapes", "test_speed_caches", "test_extremes",
-           "test_scene_headline", "test_clipped_disk", "test_hostile_usd")  # fmt: skip
-
-
 @pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """With pytest-xdist (`-n 2 --dist loadgroup`): keep each test module on one worker, so
-    its module-scoped fixtures are built once, the longest modules first (`LONGEST`); the
-    docs' pages are independent of each other and are spread over the workers. First among
-    the hooks: xdist reads the groups in its own `pytest_collection_modifyitems`, and one run
-    after it saw none (every module's tests went to both workers, each building the module's
-    fixtures: tests/test_architecture.py checks the grouping)."""
+    its module-scoped fixtures are built once; the docs' pages are independent of each other
+    and are spread over the workers. First among the hooks: xdist reads the groups in its own
+    `pytest_collection_modifyitems`, and one run after it saw none (every module's tests went
+    to both workers, each building the module's fixtures: tests/test_architecture.py checks
+    the grouping)."""
     for item in items:
         if item.module.__name__ != "test_docs":
             item.add_marker(pytest.mark.xdist_group(item.module.__name__))
-    order = {name: k for k, name in enumerate(LONGEST)}
-    items.sort(key=lambda item: order.get(item.module.__name__, len(LONGEST)))
