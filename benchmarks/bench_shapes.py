@@ -22,6 +22,7 @@ from attenfit._curves import (
     MrpRect,
     SnyderSphere,
     ThreeRect,
+    UnrealRect,
 )
 from attenfit._judge import SHAPE_CONFIGS, shape_worst_case
 from attenfit._shaders import area_compiled_cost
@@ -36,6 +37,7 @@ def _models(light: str) -> list:
             ThreeRect(),
             FrostbiteRect(),
             MrpRect(),
+            UnrealRect(),
         ]
     return [area.PointLight(), SnyderSphere(), KarisTube(), FrostbiteTube(), LambertLine()]
 
