@@ -98,10 +98,13 @@ def _env(cache: Path) -> dict[str, str]:
 
 
 def _interrupt(tmp: Path, cache: Path, after: float) -> float:
-    """Seconds from SIGINT to exit of a Mitsuba render started `after` seconds before."""
+    """Seconds from SIGINT to exit of a Mitsuba render started `after` seconds before (its own
+    output each, so that no run resumes another's kept chunks; about 40 s of rendering on 2
+    cores, so that none finishes first)."""
     env = _env(cache)
     argv = ["gen", "--emitter", "sphere", "--radius", "0.5", "--receivers", "random", "--samples",
-            "512", "--spp", "262144", "--chunk", "32", "--out", str(tmp / "g.npz"), "--force"]  # fmt: skip
+            "4096", "--spp", "262144", "--chunk", "32", "--out", str(tmp / f"g{after:g}.npz"),
+            "--force"]  # fmt: skip
     proc = subprocess.Popen(
         [sys.executable, "-m", "attenfit", *argv], env=env,
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,

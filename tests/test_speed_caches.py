@@ -256,3 +256,43 @@ def test_minor_log_labels_follow_the_view_span():
     assert minor(5.0) == "5"
     ax.set_ylim(0.01, 100)  # a decade or more: the decades' labels only
     assert minor.format_ticks([0.02, 0.5, 3]) == ["", "", ""]
+
+
+def test_an_area_model_fitted_in_a_scene_is_reused_for_the_same_receivers(cache_dir, monkeypatch):
+    """The escalation fits an area model with free parameters to the judged errors; an
+    unchanged scene asked again (another process: the cache on disk) runs no solve."""
+    from types import SimpleNamespace
+
+    import attenfit as af
+    from attenfit._curves import get_area_model
+    from attenfit._fit import _compiled
+    from attenfit._scenes import _escalate
+    from attenfit._truth import model_inputs
+
+    solves = []
+    solve = _compiled._OnHost._solve
+    monkeypatch.setattr(
+        _compiled._OnHost, "_solve", lambda self, *a: solves.append(1) or solve(self, *a)
+    )
+    model = get_area_model("unreal_wrap")()
+    assert model.free_by_default()
+    em = af.SphereEmitter(radius=0.2, center=np.array([0.0, 0.0, 1.0]))
+    x = np.linspace(-2.0, 2.0, 40)
+    pts = np.stack([x, np.zeros_like(x), np.zeros_like(x)], axis=1)
+    nrm = np.broadcast_to([0.0, 0.0, 1.0], pts.shape)
+    E = np.asarray(af.irradiance(em, pts, nrm), np.float64)
+    rows = np.stack([np.asarray(v, np.float64) for v in model_inputs(model, em, pts, nrm)])
+    inputs = [(rows, float(em.intensity))]
+    datas = [SimpleNamespace(E_true=E, denom=np.maximum(E, E.max() * 1e-3))]
+
+    first = _escalate._variants(model, inputs, datas)
+    assert len(solves) == 1 and len(first) == 2 and first[1][1]
+    assert _entries(cache_dir, "result")
+    again = _escalate._variants(model, inputs, datas)
+    assert len(solves) == 1
+    assert again[1][0].params().keys() == first[1][0].params().keys()
+    for k, v in first[1][0].params().items():
+        assert np.array_equal(np.asarray(again[1][0].params()[k]), np.asarray(v))
+    datas = [SimpleNamespace(E_true=E * 1.01, denom=datas[0].denom)]  # another scene: solved
+    _escalate._variants(model, inputs, datas)
+    assert len(solves) == 2

@@ -29,7 +29,7 @@ import numpy as np
 from .. import _cache
 from .._curves import AreaModel, get_area_model, list_area_models
 from .._errors import AttenfitError
-from .._fit import fit
+from .._fit import fit, reuse_results
 from .._judge import Contender, rank
 from .._shaders import LANGUAGES, area_compiled_cost, function_source
 from .._truth import (
@@ -292,7 +292,8 @@ def _variants(
     target = np.concatenate([x_.E_true / i for (_, i), x_ in zip(inputs, datas, strict=True)])
     w = np.concatenate([i / x_.denom for (_, i), x_ in zip(inputs, datas, strict=True)])
     try:
-        res = fit(model, x, target, loss="absolute", weights=w)
+        with reuse_results():  # an unchanged scene asked again: no solve
+            res = fit(model, x, target, loss="absolute", weights=w)
     except AttenfitError:
         return out
     if all(np.all(np.isfinite(np.asarray(v))) for v in res.model.params().values()):
