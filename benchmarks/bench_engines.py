@@ -74,11 +74,14 @@ def table(samples: int | None = None) -> str:
     return "\n".join(lines)
 
 
-def main(samples: int | None = None) -> None:
-    print(table(samples), flush=True)
+def main(argv: list[str] | None = None) -> None:
+    """`python -m benchmarks engines [--samples N]` or `python -m benchmarks.bench_engines`."""
+    ap = argparse.ArgumentParser(
+        prog="python -m benchmarks engines", description=__doc__.split("\n\n")[0]
+    )
+    ap.add_argument("--samples", type=int, default=None, help="receivers per light of a file")
+    print(table(ap.parse_args(argv).samples), flush=True)
 
 
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--samples", type=int, default=None, help="receivers per light of a file")
-    main(ap.parse_args().samples)
+    main()
