@@ -61,12 +61,13 @@ _NOTICED: set[str] = set()
 #: The largest entry of each kind (bytes, header included); other kinds: `LIMITS[None]`.
 #: Measured: the families' descriptions 9 kB, a compiler's counts 0.2 kB, the compilers'
 #: versions 0.2 kB, a traced solve 50-80 kB, an export 1-3 kB, a report's figure (PNG) 40-400
-#: kB, the witness section 60 kB.
+#: kB, the witness section 60 kB, an engine's closest settings 0.3 kB.
 LIMITS: dict[str | None, int] = {
     "families": 1 << 20,
     "compilers": 64 << 10,
     "compiled": 64 << 10,
     "worst": 16 << 10,
+    "engine-search": 16 << 10,
     "export": 1 << 20,
     "figure": 16 << 20,
     "witness": 4 << 20,
@@ -398,6 +399,20 @@ def _worst_shape(found: Any) -> str | None:
     return None
 
 
+def _engine_search_shape(found: Any) -> str | None:
+    """An engine's closest settings: {"props": {name: number, bool or text}, "error": number}."""
+    if not (isinstance(found, dict) and set(found) == {"props", "error"}):
+        return "no engine settings"
+    props = found["props"]
+    if not isinstance(props, dict) or not all(
+        isinstance(k, str) and (isinstance(v, bool | str) or _number(v)) for k, v in props.items()
+    ):
+        return "settings that are not named numbers"
+    if not _number(found["error"]):
+        return "an error that is not a number"
+    return None
+
+
 def _compilers_shape(versions: Any) -> str | None:
     """The compilers' versions: tool name -> version text or null."""
     if not isinstance(versions, dict) or not all(
@@ -465,6 +480,7 @@ _SHAPES: dict[str, Callable[[Any], str | None]] = {
     "compilers": _compilers_shape,
     "compiled": _compiled_shape,
     "worst": _worst_shape,
+    "engine-search": _engine_search_shape,
     "export": _export_shape,
     "witness": _witness_shape,
 }

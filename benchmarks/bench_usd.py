@@ -1,7 +1,7 @@
 """How long a USD scene takes to answer: the Blender room (examples/scenes/blender/room.usda:
-a sphere, a spot and a disk light) with 6,667 receivers per light (20,001 in all).
+a sphere, a spot, a disk and a rectangle light) with 6,667 receivers per light (26,668 in all).
 
-Per configuration, the first call in the process (compiling one solve per family) and the
+Per configuration, the first call in the process (compiling the solves of the families' groups and the truth's programs) and the
 warm call (median of repeats) of `answer_file`, split into reading and sampling, ground
 truth, and fitting plus judging plus the per-light choices (and the range trade, with a
 threshold). Configurations: every family; `--engine godot` with the range trade; every
@@ -40,7 +40,8 @@ def _quiet(_msg: str) -> None:
 
 def main() -> None:
     enable_persistent_cache()
-    print(f"{ROOM.name}: 3 lights x {SAMPLES} receivers; warm = median of {REPEATS}")
+    lights = len(load_mesh_scene(ROOM, samples=SAMPLES, notice=_quiet).scene.lights)
+    print(f"{ROOM.name}: {lights} lights x {SAMPLES} receivers; warm = median of {REPEATS}")
     print(f"{'configuration':<26}{'first s':>9}{'warm s':>9}{'read s':>9}{'truth s':>9}  per light")
     for label, opts in CONFIGS.items():
         start = time.perf_counter()

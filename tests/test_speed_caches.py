@@ -296,3 +296,37 @@ def test_an_area_model_fitted_in_a_scene_is_reused_for_the_same_receivers(cache_
     datas = [SimpleNamespace(E_true=E * 1.01, denom=datas[0].denom)]  # another scene: solved
     _escalate._variants(model, inputs, datas)
     assert len(solves) == 2
+
+
+def test_an_engine_search_is_read_back_for_the_same_light_and_a_bad_entry_is_not(
+    cache_dir, monkeypatch, tmp_path
+):
+    """The engine's closest settings (`_engine_search.search`, most of a warm `--engine`
+    answer) are cached by the search's exact inputs; a corrupt entry or one of another shape
+    is ignored and the search runs again."""
+    from test_engine_search import DISK, _runaway_gltf
+
+    from attenfit._scenes import _engine_search
+    from attenfit._scenes._engine_fit import engine_verdict
+
+    calls = []
+    real = _engine_search._search
+    monkeypatch.setattr(_engine_search, "_search", lambda *a: calls.append(1) or real(*a))
+    w, light, props, x, *_ = _runaway_gltf(tmp_path, DISK)
+    first = engine_verdict(w, light, props, x, 0.0)  # tolerance 0: the search runs
+    assert len(calls) == 1 and len(_entries(cache_dir, "engine-search")) == 1
+    again = engine_verdict(w, light, props, x, 0.0)
+    assert len(calls) == 1
+    assert again.properties == first.properties and again.error == first.error
+    (entry,) = _entries(cache_dir, "engine-search")
+    entry.write_bytes(entry.read_bytes()[:-4] + b"9999")  # the checksum no longer holds
+    assert engine_verdict(w, light, props, x, 0.0).properties == first.properties
+    assert len(calls) == 2
+
+    for bad in (b'{"props": {"range": [1]}, "error": 0.1}', b'{"props": {}, "error": "x"}', b"[]"):
+        assert _cache.write("engine-search", "k", bad)
+        assert _cache.read("engine-search", "k") is None
+    assert _cache.write(
+        "engine-search", "k", b'{"props": {"range": 2.5, "on": true}, "error": 0.1}'
+    )
+    assert _cache.read("engine-search", "k") is not None

@@ -45,12 +45,14 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import json
 import math
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from .. import _cache
 from .._judge import EngineWitness, engine_receiver_errors
 from ._light_fits import LightData
 from ._types import SceneLight
@@ -376,7 +378,21 @@ def _first_receivers(case: Case, props) -> np.ndarray:
 
 def search(case: Case, props: Mapping[str, Any], size_value: float = 0.0):
     """The engine's closest settings from the mapping `props` (module docstring): (props,
-    their largest error through the witness), never worse than `props`'."""
+    their largest error through the witness), never worse than `props`'. A search of the
+    same case from the same mapping (an unchanged scene asked again) is read from attenfit's
+    cache, by its exact inputs."""
+    key = _cache.fingerprint("engine-search", case, dict(props), float(size_value))
+    payload = _cache.read("engine-search", key)
+    if payload is not None:
+        found = json.loads(payload)
+        return {**props, **found["props"]}, float(found["error"])
+    best, error = _search(case, props, size_value)
+    if all(isinstance(v, bool | int | float | str) for v in best.values()):
+        _cache.write("engine-search", key, json.dumps({"props": best, "error": error}).encode())
+    return best, error
+
+
+def _search(case: Case, props: Mapping[str, Any], size_value: float):
     props = dict(props)
     cone, edge = _cone_axes(case, props)
     axes = _prop_axes(case, props, size_value) + cone
