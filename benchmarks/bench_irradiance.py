@@ -7,7 +7,8 @@
    ports: the sphere's clipped closed form in its published acos form (Frostbite 2014
    `illuminanceSphereOrDisk`), and the disk's closed forms as attenfit writes them (the same
    arc quadrature where the arc's closed form cancels), each branch evaluated only on the
-   receivers that take it.
+   receivers that take it, and the rectangle's Lambert polygon formula after clipping to the
+   receiver's hemisphere. The capsule and the tube (quadratures) have no numpy peer.
 2. `attenfit.quadrature.irradiance` (surface Gauss-Legendre) against the closed forms: max
    error over 256 receivers, in units of the facing value 1/d^2, and time per receiver, per
    node count; and the capsule's own outer quadrature (`CAPSULE_NODES` per panel) against a
@@ -26,7 +27,7 @@ import numpy as np
 from .timing import median_seconds
 
 N = 65_536
-N_CAPSULE = 4_096  # the capsule's quadrature costs ~300x the sphere's closed form
+N_CAPSULE = 4_096  # the capsule's and the tube's quadratures cost ~300x the sphere's closed form
 REPEATS = 5
 
 
@@ -37,7 +38,7 @@ def _receivers(em, n, seed, dmin=1.05, dmax=50.0):
     d = np.exp(rng.uniform(math.log(dmin), math.log(dmax), n))
     r = float(em.radius)
     p = np.asarray(em.reference_point()) + (d * r)[:, None] * v
-    if em.kind == "capsule":
+    if em.kind in ("capsule", "tube"):
         p = p + 0.5 * (np.asarray(em.b) - np.asarray(em.a)) * rng.uniform(-1, 1, (n, 1))
         dist, _ = em.point_light(p, np.ones_like(p))
         p = p[np.asarray(dist) > 1.05 * r]
@@ -151,6 +152,48 @@ def _numpy_disk(c, m, r, p, n, I=1.0):
     return E
 
 
+def _edge_term(a, b, n):
+    """Lambert's term of the edge a -> b (rows of vectors from the receiver): its angle times
+    n . unit(a x b), 0 where the edge has no length."""
+    cr = np.cross(a, b)
+    sn = np.linalg.norm(cr, axis=1)
+    theta = np.arctan2(sn, np.sum(a * b, axis=1))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(sn > 0, theta * np.sum(n * cr, axis=1) / sn, 0.0)
+
+
+def _numpy_rect(c, m, t, w, h, p, n, I=1.0):
+    """Peer: the one-sided rectangle's irradiance by Lambert's polygon formula (Arvo 1994,
+    eq. 2) after clipping the rectangle to the receiver's upper hemisphere, written here in
+    numpy float64: each edge cut where it crosses the horizon, and the horizon's own edge from
+    where the contour leaves the hemisphere to where it comes back (a convex polygon crosses a
+    plane at most twice)."""
+    m, t = m / np.linalg.norm(m), t / np.linalg.norm(t)
+    s = np.cross(m, t)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    corners = [c + 0.5 * (i * w * t + j * h * s) for i, j in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    V = np.stack([q - p for q in corners], axis=1)  # (receivers, 4, 3)
+    up = np.einsum("rkj,rj->rk", V, n)
+    total = np.zeros(len(p))
+    leave, enter = np.zeros_like(p), np.zeros_like(p)
+    crosses = np.zeros(len(p), bool)
+    for k in range(4):
+        a, b, ha, hb = V[:, k], V[:, (k + 1) % 4], up[:, k], up[:, (k + 1) % 4]
+        above_a, above_b = ha > 0, hb > 0
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = a + (ha / (ha - hb))[:, None] * (b - a)  # where the edge meets the horizon
+        s0 = np.where(above_a[:, None], a, x)
+        s1 = np.where(above_b[:, None], b, x)
+        total += np.where(above_a | above_b, _edge_term(s0, s1, n), 0.0)
+        out, back = above_a & ~above_b, ~above_a & above_b
+        leave = np.where(out[:, None], x, leave)
+        enter = np.where(back[:, None], x, enter)
+        crosses |= out
+    total += np.where(crosses, _edge_term(leave, enter, n), 0.0)
+    front = (p - c) @ m > 0
+    return np.where(front, I / (w * h) * 0.5 * np.abs(total), 0.0)
+
+
 def main() -> None:
     import attenfit as af
     from attenfit._truth import _irradiance
@@ -168,6 +211,8 @@ def _run(af, _irradiance) -> None:
         af.SphereEmitter([0.0, 0.0, 0.0], 1.0),
         af.DiskEmitter([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], 1.0),
         af.CapsuleEmitter([-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0),
+        af.RectEmitter([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0], 2.0, 1.0),
+        af.TubeEmitter([-1.0, 0.0, 0.0], [1.0, 0.0, 0.0], 0.1),
     ]
     print(
         f"1. exact irradiance, jitted, {N} receivers per call ({N_CAPSULE} capsule), median of {REPEATS}"
@@ -176,7 +221,7 @@ def _run(af, _irradiance) -> None:
     point = jax.jit(lambda em, p, n: (lambda d, w: w / (d * d))(*em.point_light(p, n)))
     exact = jax.jit(af.irradiance)
     for em in ems:
-        p64, n64 = _receivers(em, N_CAPSULE if em.kind == "capsule" else N, 0)
+        p64, n64 = _receivers(em, N_CAPSULE if em.kind in ("capsule", "tube") else N, 0)
         for dt in (jnp.float32, jnp.float64):
             p, n = jnp.asarray(p64, dt), jnp.asarray(n64, dt)
             t = median_seconds(exact, em, p, n, repeats=REPEATS)
@@ -184,17 +229,27 @@ def _run(af, _irradiance) -> None:
             print(
                 f"   {em.kind:<9}{jnp.dtype(dt).name:<9}{len(p) / t:>12.3g}{t / tp:>15.1f}x slower"
             )
-    peers = [
-        ("sphere", "Frostbite acos form", _numpy_sphere_frostbite),
-        ("disk", "the same closed forms, branches by masks", _numpy_disk),
-    ]
+    peers = {
+        "sphere": ("Frostbite acos form", _numpy_sphere_frostbite),
+        "disk": ("the same closed forms, branches by masks", _numpy_disk),
+        "rect": ("Lambert's polygon formula after clipping", _numpy_rect),
+    }
     print(f"\n   peers: numpy float64 on the same {N} receivers, median of {REPEATS}, same run")
     print(f"   {'emitter':<9}{'numpy evals/s':>15}{'attenfit evals/s':>18}{'attenfit/numpy':>16}"
           f"{'max |diff| x d^2':>18}")  # fmt: skip
-    for em, (kind, form, port) in zip(ems, peers, strict=False):
+    for em in ems:
+        if em.kind not in peers:
+            continue
+        kind, (form, port) = em.kind, peers[em.kind]
         p64, n64 = _receivers(em, N, 0)
         c, r = np.asarray(em.reference_point(), np.float64), float(em.radius)
-        args = (c, np.asarray(em.normal, np.float64), r) if kind == "disk" else (c, r)
+        if kind == "disk":
+            args = (c, np.asarray(em.normal, np.float64), r)
+        elif kind == "rect":
+            args = (c, *(np.asarray(v, np.float64) for v in (em.normal, em.tangent)),
+                    float(em.width), float(em.height))  # fmt: skip
+        else:
+            args = (c, r)
         t_np = median_seconds(port, *args, p64, n64, repeats=REPEATS)
         t_ax = median_seconds(exact, em, jnp.asarray(p64), jnp.asarray(n64), repeats=REPEATS)
         ref = np.asarray(exact(em, jnp.asarray(p64), jnp.asarray(n64)))
@@ -204,13 +259,15 @@ def _run(af, _irradiance) -> None:
             f"   {kind:<9}{N / t_np:>15.3g}{N / t_ax:>18.3g}{t_np / t_ax:>15.2f}x{diff:>18.1e}"
             f"   ({form})"
         )
-    print("   capsule: no numpy port (its outer integral is a quadrature with a closed-form inner)")
+    print(
+        "   capsule, tube: no numpy port (their outer integrals are quadratures: docs/ground-truth.md)"
+    )
 
     print(
         "\n2. reference quadrature (attenfit.quadrature) vs closed form (capsule: vs attenfit.irradiance)"
     )
     print(f"   {'emitter':<9}{'nodes':>6}{'max err (x 1/d^2)':>20}{'us/receiver':>14}")
-    for em in ems:
+    for em in ems[:3]:
         p, n = _receivers(em, 16 if em.kind == "capsule" else 256, 1)
         p, n = jnp.asarray(p), jnp.asarray(n)
         ref = np.asarray(af.irradiance(em, p, n))

@@ -17,8 +17,9 @@ the plain sum loses the ratio d/w of its digits. With `q = c - p` and the vertic
 polygon's vector area, independent of `p`), and the first is small by construction, with
 `a_i x a_j = q x (e_j - e_i) + e_i x e_j`, `|q|^2 - a_i.a_j = -(q.(e_i + e_j) + e_i.e_j)` and
 `atan(x)/x - 1` by its series below 0.3. Within 4 half-diagonals of the centre the plain
-sum is used: there the terms are of the order of the result, and the split's are not. Clipping (Sutherland-Hodgman against the plane
-`n.(x - p) = 0`) keeps at most 8 vertex slots, compacted with a stable sort.
+sum is used: there the terms are of the order of the result, and the split's are not.
+Clipping against the plane `n.(x - p) = 0` (Sutherland-Hodgman's cuts) keeps each edge's
+part above it and adds the plane's own edge: five edges, no vertex list to compact.
 """
 
 from __future__ import annotations
@@ -145,19 +146,24 @@ def _offsets(u: Array, v: Array, hw: Array, hh: Array) -> Float[Array, "4 3"]:
     return signs[:, :1] * (hw * u)[None, :] + signs[:, 1:] * (hh * v)[None, :]
 
 
-def _clip(e: Array, h: Array) -> tuple[Array, Array]:
-    """The polygon `e` (offsets, (4, 3)) clipped to `h >= 0` (heights above the receiver's
-    plane): 8 vertex slots, the valid ones first in order, and their count."""
+def _clip(e: Array, h: Array) -> tuple[Array, Array, Array, Array]:
+    """The edges of the polygon `e` (offsets, (4, 3)) clipped to `h >= 0` (heights above the
+    receiver's plane): each edge's part above the plane, then the plane's own edge, from where
+    the contour leaves the hemisphere to where it comes back (a convex polygon crosses a plane
+    at most twice). (starts (5, 3), ends (5, 3), which edges there are, whether any is.)"""
     inside = h >= 0
-    nxt = jnp.roll(jnp.arange(4), -1)
+    nxt = jnp.array([1, 2, 3, 0])
     cross = inside != inside[nxt]
     dh = h - h[nxt]
     t = h / jnp.where(cross, dh, jnp.ones_like(dh))
     cut = e + t[:, None] * (e[nxt] - e)
-    slots = jnp.stack([e, cut], axis=1).reshape(8, 3)
-    valid = jnp.stack([inside, cross], axis=1).reshape(8)
-    order = jnp.argsort((~valid).astype(jnp.int8), stable=True)
-    return slots[order], jnp.sum(valid)
+    leave, back = inside & ~inside[nxt], ~inside & inside[nxt]
+    zero = jnp.zeros_like(cut)
+    horizon = [jnp.sum(jnp.where(x[:, None], cut, zero), axis=0) for x in (leave, back)]
+    starts = jnp.concatenate([jnp.where(inside[:, None], e, cut), horizon[0][None]])
+    ends = jnp.concatenate([jnp.where(inside[nxt][:, None], e[nxt], cut), horizon[1][None]])
+    there = jnp.concatenate([inside | inside[nxt], jnp.any(leave)[None]])
+    return starts, ends, there, jnp.any(inside)
 
 
 def rect_irradiance_one(
@@ -170,10 +176,7 @@ def rect_irradiance_one(
     q = c - p
     front = -_dot(m, q) > 0
     h = _dot(n, q) + e @ n
-    w, k = _clip(e, h)
-    j = jnp.arange(8)
-    w2 = w[jnp.where(j + 1 < k, j + 1, 0)]
-    edge = j < k
+    w, w2, edge, lit = _clip(e, h)
     # every edge's a_i x a_j and a_i . a_j from the offsets (module docstring)
     cr = jnp.cross(q[None, :], w2 - w) + jnp.cross(w, w2)
     s = _safe_norm(cr)
@@ -195,7 +198,7 @@ def rect_irradiance_one(
     far = q2 > _FAR * (hw * hw + hh * hh)
     terms = jnp.where(edge, jnp.where(far, far_terms, near_terms), jnp.zeros_like(s))
     E = L / 2 * jnp.maximum(-jnp.sum(terms), 0)
-    return jnp.where(front & (k >= 3), E, jnp.zeros_like(E))
+    return jnp.where(front & lit, E, jnp.zeros_like(E))
 
 
 def rect_kernel(emitter: RectEmitter, dtype: Any) -> Any:
