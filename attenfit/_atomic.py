@@ -283,13 +283,15 @@ def atomic_write(
     Refuses to replace an existing file unless `force`.
     """
     path = check_output_path(path, force=force)
-    fd, tmp = tempfile.mkstemp(
-        prefix=f".{path.name}.", suffix=f"{_TMP_MARK}{path.suffix}", dir=path.parent or "."
-    )
-    os.close(fd)
-    tmp_path = Path(tmp)
-    os.chmod(tmp_path, 0o666 & ~_umask())  # mkstemp makes 0600; outputs get the usual mode
+    tmp_path = None
     try:
+        with _signals_deferred():  # a signal as the file is made must find it to remove
+            fd, tmp = tempfile.mkstemp(
+                prefix=f".{path.name}.", suffix=f"{_TMP_MARK}{path.suffix}", dir=path.parent or "."
+            )
+            tmp_path = Path(tmp)
+            os.close(fd)
+        os.chmod(tmp_path, 0o666 & ~_umask())  # mkstemp makes 0600; outputs get the usual mode
         if callable(data):
             data(tmp_path)
         elif isinstance(data, str):
@@ -315,8 +317,9 @@ def atomic_write(
                     ) from None
                 os.replace(tmp_path, path)
     finally:
-        with contextlib.suppress(FileNotFoundError):
-            tmp_path.unlink()
+        if tmp_path is not None:
+            with contextlib.suppress(FileNotFoundError):
+                tmp_path.unlink()
     return path
 
 
@@ -360,9 +363,11 @@ def atomic_dir(
     inputs = tuple(inputs)
     path = check_output_path(path, force=force, folder=True, inputs=inputs)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
-    os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
+    tmp = None
     try:
+        with _signals_deferred():  # a signal as the folder is made must find it to remove
+            tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=_TMP_MARK, dir=path.parent))
+        os.chmod(tmp, 0o777 & ~_umask())  # mkdtemp makes 0700; the folder gets the usual mode
         yield tmp
         check_output_path(path, force=force, folder=True, inputs=inputs)  # inputs read since
         old = None
@@ -386,4 +391,5 @@ def atomic_dir(
             if old is not None:
                 shutil.rmtree(old, ignore_errors=True)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)

@@ -640,3 +640,37 @@ def test_an_interrupt_surfacing_as_another_error_is_an_interrupt(monkeypatch, ca
     assert main(["families"]) == 128 + signal.SIGTERM
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "terminated" in err and "internal error" not in err
+
+
+@pytest.mark.parametrize("which", ["folder", "file"])
+def test_a_signal_as_the_temporary_is_made_leaves_nothing(tmp_path, monkeypatch, which):
+    """A SIGINT landing right after `mkdtemp` / `mkstemp` made the temporary (before its name
+    was kept) is held until the name is kept, then unwinds through the clean-up: nothing is
+    left (the CI run that found it: a SIGTERM 0 s after the folder appeared left it)."""
+    import tempfile
+
+    from attenfit import _atomic
+
+    name = "mkdtemp" if which == "folder" else "mkstemp"
+    real = getattr(tempfile, name)
+
+    def making(*args, **kwargs):
+        made = real(*args, **kwargs)
+        signal.raise_signal(signal.SIGINT)  # the temporary exists; its name is not yet kept
+        return made
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(_atomic.tempfile, name, making)
+    previous = signal.signal(signal.SIGINT, interrupt)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            if which == "folder":
+                with _atomic.atomic_dir(tmp_path / "out") as tmp:
+                    (tmp / "a.md").write_text("a")
+            else:
+                _atomic.atomic_write(tmp_path / "out.txt", "a")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert list(tmp_path.iterdir()) == []
