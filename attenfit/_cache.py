@@ -44,6 +44,7 @@ __all__ = [
     "cached_array",
     "clear",
     "code_version",
+    "covers",
     "fingerprint",
     "folder",
     "info",
@@ -307,15 +308,31 @@ def write_array(kind: str, key: str, value: Any) -> bool:
     return write(kind, key, buf.getvalue())
 
 
-def cached_array(kind: str, parts: tuple[Any, ...], compute: Callable[[], Any]) -> Any:
+def covers(cls: type) -> bool:
+    """Whether the code version covers `cls`: a class of attenfit's own. A user's class can
+    change without changing the version, so what it computes is never cached."""
+    return cls.__module__.startswith("attenfit.")
+
+
+def cached_array(
+    kind: str,
+    parts: tuple[Any, ...],
+    compute: Callable[[], Any],
+    *,
+    shape: tuple[int, ...] | None = None,
+) -> Any:
     """The float array `compute()` returns, from the cache when this code version computed it
     for the same `parts` (its exact inputs: `fingerprint`) before; else computed and cached.
     For what is a function of its inputs alone (an exact irradiance at given receivers): an
-    unchanged question asked again runs no program for it."""
+    unchanged question asked again runs no program for it. An entry not of `shape` (when
+    given) is ignored with a notice and rebuilt."""
     import numpy as np
 
     key = fingerprint(*parts)
     value = read_array(kind, key)
+    if value is not None and shape is not None and value.shape != tuple(shape):
+        notice(f"ignoring a cache entry of another shape ({kind}); it will be rebuilt")
+        value = None
     if value is None:
         value = np.asarray(compute())
         if value.dtype.kind == "f":

@@ -330,3 +330,21 @@ def test_an_engine_search_is_read_back_for_the_same_light_and_a_bad_entry_is_not
         "engine-search", "k", b'{"props": {"range": 2.5, "on": true}, "error": 0.1}'
     )
     assert _cache.read("engine-search", "k") is not None
+
+
+def test_a_cached_array_of_another_shape_is_rebuilt(cache_dir, capsys):
+    """`_cache.cached_array` with `shape`: an entry that is a float array of another shape
+    (written by anything that can write the cache) is ignored with a notice, and rebuilt."""
+    calls = []
+
+    def compute():
+        calls.append(1)
+        return np.arange(4.0)
+
+    parts = ("test", np.ones(3))
+    assert np.array_equal(_cache.cached_array("values", parts, compute, shape=(4,)), np.arange(4.0))
+    assert np.array_equal(_cache.cached_array("values", parts, compute, shape=(4,)), np.arange(4.0))
+    assert len(calls) == 1
+    _cache.write_array("values", _cache.fingerprint(*parts), np.zeros((2, 2)))
+    assert np.array_equal(_cache.cached_array("values", parts, compute, shape=(4,)), np.arange(4.0))
+    assert len(calls) == 2 and "another shape" in capsys.readouterr().err

@@ -221,7 +221,7 @@ def _persistent_key(spec: Spec, solver: Any) -> str | None:
         return None
     kind, detail = spec.key
     if isinstance(kind, type):  # a model class and its pytree structure
-        if not kind.__module__.startswith("attenfit."):
+        if not _cache.covers(kind):
             return None
         return f"family:{kind.__module__}.{kind.__qualname__}:{detail}"
     cache_key = getattr(kind, "cache_key", None)  # a (fn, params) model

@@ -27,6 +27,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .. import _cache
 from .._fit import fit_many, to_internal, to_param
 
 
@@ -121,7 +122,7 @@ class _Switch:
     def cache_key(self) -> str | None:
         """What this model computes (its families, their structure and layout), for the fit
         stage's cache across processes; None when a family is not attenfit's own."""
-        if not all(cls.__module__.startswith("attenfit.") for cls in self.classes):
+        if not all(_cache.covers(cls) for cls in self.classes):
             return None
         parts = [
             f"{cls.__module__}.{cls.__qualname__}:{jax.tree_util.tree_structure(self.templates[cls])}"

@@ -157,7 +157,8 @@ def _facing_curve(light: Any) -> Any:
             ds = facing_sweep(light, d_min, 1e4 * r, 512, dtype=np.float64)
             return np.stack([ds.distance(), ds.attenuation()])
 
-        dist, att = _cache.cached_array("values", ("facing-curve", light, d_min), sweep)
+        parts = ("facing-curve", light, d_min)
+        dist, att = _cache.cached_array("values", parts, sweep, shape=(2, 512))
         ld, lf = np.log(dist), np.log(att)
         return lambda d: np.exp(np.interp(np.log(np.maximum(d, dist[0])), ld, lf))
     return lambda d: 1 / np.maximum(d, r) ** 2
@@ -275,9 +276,10 @@ def _evaluated(model: AreaModel, stacked: np.ndarray) -> np.ndarray:
     def compute() -> np.ndarray:
         return bucketed(model.evaluate, stacked).astype(np.float64)
 
-    if not type(model).__module__.startswith("attenfit."):
+    if not _cache.covers(type(model)):
         return compute()
-    return _cache.cached_array("values", ("area-model", model, stacked), compute)
+    parts = ("area-model", model, stacked)
+    return _cache.cached_array("values", parts, compute, shape=stacked.shape[1:])
 
 
 def _variants(

@@ -189,6 +189,7 @@ def spot_profile(light: SceneLight, theta: np.ndarray) -> np.ndarray:
             "values",
             ("spot-profile", light.profile, theta, tu, tp),
             lambda: np.asarray(fn(jnp.asarray(np.cos(theta)), tu, tp), dtype=np.float64),
+            shape=np.shape(theta),
         )
     if tu - tp < 1e-9:
         return (theta < tu).astype(np.float64)
@@ -282,6 +283,7 @@ def _exact(scene: Scene, i: int, em: AbstractEmitter, pts: np.ndarray, nrm: np.n
         "values",
         ("scene-irradiance", em, pts, nrm, jax.config.jax_enable_x64),
         lambda: bucketed(lambda p, n: irradiance(em, p, n), pts, nrm, axis=0).astype(np.float64),
+        shape=(len(pts),),
     )
     if not np.all(np.isfinite(E)):  # a bug, not a user error: receivers inside were removed
         raise RuntimeError(f"irradiance is not finite at a receiver of light {i}")
