@@ -101,8 +101,10 @@ def test_samples_in_decreasing_distance_give_the_same_fit():
     target = 1 / (d * d + 0.1**2) * np.exp(0.05 * rng.standard_normal(d.shape))
     up = af.fit(af.Clamped(r_min=0.3), d, target)
     down = af.fit(af.Clamped(r_min=0.3), d[::-1], target[::-1])
-    np.testing.assert_allclose(down.params["r_min"], up.params["r_min"], rtol=1e-12)
-    np.testing.assert_allclose(down.loss, up.loss, rtol=1e-12)
+    # the same interval and its optimum; read backwards, the clamped samples' sums are
+    # the total less a running sum (rounding at n eps of the total)
+    np.testing.assert_allclose(down.params["r_min"], up.params["r_min"], rtol=1e-10)
+    np.testing.assert_allclose(down.loss, up.loss, rtol=1e-10)
     assert up.steps == down.steps == 0  # known optimal: the solver takes no step
 
 

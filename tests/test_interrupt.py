@@ -410,12 +410,12 @@ def test_a_signal_before_main_stops_the_command_at_once(capsys):
 
 
 _LEAVING = r"""
-import atexit, os, subprocess, sys, time
+import os, subprocess, sys, time
 from attenfit import cli
 from attenfit._cli import _cmd_families
 
-# a second process that sends SIGTERM every 0.1 ms, from the moment this one starts to
-# leave (its atexit hooks) until it is gone
+# a second process that sends SIGTERM every 0.1 ms, from the moment `main` has returned
+# (the command has finished) until this process is gone
 KILLER = '''
 import os, sys, time
 sys.stdin.readline()
@@ -428,20 +428,23 @@ while True:
 '''
 
 def verb(args):
-    killer = subprocess.Popen([sys.executable, "-c", KILLER, str(os.getpid())],
-                              stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.DEVNULL)
-    def leaving():
-        killer.stdin.write(b"go\n")
-        killer.stdin.flush()
-        time.sleep(0.3)
-    atexit.register(leaving)
-    global garbage  # work for Python's shutdown, after it has put back the default handlers
-    garbage = [{"x": list(range(20))} for _ in range(300_000)]
     print("done", flush=True)
     return 0
 
+killer = subprocess.Popen([sys.executable, "-c", KILLER, str(os.getpid())],
+                          stdin=subprocess.PIPE, stdout=subprocess.DEVNULL,
+                          stderr=subprocess.DEVNULL)
+main = cli.main
+
+def finished():
+    code = main()
+    killer.stdin.write(b"go\n")
+    killer.stdin.flush()
+    time.sleep(0.3)  # signals land as `run` leaves
+    return code
+
 _cmd_families._run_families = verb
+cli.main = finished
 sys.argv = ["attenfit", "families"]
 cli.run()
 """
@@ -450,7 +453,7 @@ cli.run()
 def test_signals_as_the_process_leaves_change_nothing(tmp_path):
     """A command that has finished exits with its own code, however many SIGTERMs come while
     it leaves: before, Python's shutdown put back the default handler and the process died
-    (exit -15) after writing its outputs."""
+    (exit -15) after writing its outputs; `run` now ignores them and leaves by `os._exit`."""
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     for _ in range(3):
         proc = subprocess.run(
