@@ -218,6 +218,43 @@ def test_reused_solve_outputs_equal_a_solve_and_a_changed_input_solves(cache_dir
         assert np.array_equal(fits(t), first) and len(solves) == 4
 
 
+_REUSED = r"""
+import json, sys
+import numpy as np
+import attenfit as af
+from attenfit._fit import reuse_results
+
+d = np.geomspace(0.05, 10.0, 32)[None].repeat(2, 0)
+t = 1 / (d**2 + np.array([[0.01], [0.02]]))
+with reuse_results():
+    res = af.fit_many(af.Yuksel(r=np.full(2, 0.1)), d, t)
+print(json.dumps([res.params["r"].tolist(), res.converged.tolist(), "optimistix" in sys.modules]))
+"""
+
+
+def test_a_result_read_back_in_a_fresh_process_needs_no_optimistix(cache_dir):
+    # a warm answer reads its solves' outputs from the cache: the solve (optimistix, 0.15 s
+    # to import) is not even built
+    env = {**os.environ, "PYTHONPATH": str(REPO), "ATTENFIT_CACHE_DIR": str(cache_dir)}
+    runs = []
+    for _ in range(2):
+        proc = subprocess.run(
+            [sys.executable, "-c", _REUSED], env=env, capture_output=True, text=True, timeout=600
+        )
+        assert proc.returncode == 0, proc.stderr[-2000:]
+        runs.append(json.loads(proc.stdout.strip().splitlines()[-1]))
+    (r1, ok1, optx1), (r2, ok2, optx2) = runs
+    assert optx1 and not optx2  # solved, then read back
+    assert r1 == r2 and ok1 == ok2 == [True, True]
+
+
+def test_the_solver_names_checked_are_the_solvers():
+    from attenfit._fit import SOLVERS
+    from attenfit._fit._validate import SOLVER_NAMES
+
+    assert tuple(SOLVERS) == SOLVER_NAMES
+
+
 def test_a_scene_reference_curve_is_cached_by_model_and_points(cache_dir):
     import jax
 

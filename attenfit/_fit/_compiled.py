@@ -17,14 +17,10 @@ from typing import Any
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 from jaxtyping import Array
 
 from .. import _cache, _progress
-from ._problem import build_problem, packed_slices
-from ._solvers import (
-    make_solver,
-)
+from ._layout import packed_slices
 from ._spec import Spec, free_kinds
 
 
@@ -169,9 +165,18 @@ class _Persistent:
     family or function, whose code attenfit's cache cannot vouch for).
     """
 
-    def __init__(self, jitted: Callable, key: str | None):
-        self.jitted, self.key = jitted, key
+    def __init__(self, build: Callable[[], Callable], key: str | None):
+        self.build, self.key = build, key
         self.by_shapes: dict[Any, Callable] = {}
+        self._jitted: Callable | None = None
+
+    @property
+    def jitted(self) -> Callable:
+        """The jitted solve, built on first use: a program read back from the cache needs
+        neither it nor optimistix (whose import is 0.15 s of a warm `attenfit scene`)."""
+        if self._jitted is None:
+            self._jitted = self.build()
+        return self._jitted
 
     def __call__(self, *args):
         shapes = (
@@ -309,34 +314,47 @@ def compiled_solve(
     )
     fn = _COMPILED.get(key)
     if fn is None:
-        reflected = tuple(kind == "nonnegative" for kind in free_kinds(spec, free))
-        solver_obj = (
-            make_solver(solver, rtol, atol, float(np.finfo(dtype).eps), batched, reflected)
-            if isinstance(solver, str)
-            else solver
-        )
-        run = build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched)
-        if batched:
-            if max_steps > 2 * _FIRST_ROUND:
-                first = build_problem(
-                    spec, free, loss, solver_obj, _FIRST_ROUND, guess, rtol, atol, batched
-                )
-                rounds = _in_rounds(
-                    first,
-                    run,
-                    packed_slices(len(free_kinds(spec, free)))["result"].start,
-                    optx.RESULTS.nonlinear_max_steps_reached._value.item(),
-                )
-                run = _by_batch_size(rounds, run)
-            fn = jax.jit(_chunked(run, _CHUNK), compiler_options=_COMPILER_OPTIONS)
-        else:
-            fn = jax.jit(
-                lambda flat: run(*_unflatten_inputs(spec, _read_in_order(flat), weighted)),
-                compiler_options=_COMPILER_OPTIONS,
-            )
+        options = (spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype, weighted)
         persistent = _persistent_key(spec, solver)
         if persistent is not None:
             persistent = f"{persistent}|{key[3:]}|{np.dtype(dtype).name}|weighted={weighted}"
-        fn = _OnHost(_Persistent(fn, persistent), dtype, persistent)
+        fn = _OnHost(_Persistent(lambda: _jitted_solve(*options), persistent), dtype, persistent)
         _COMPILED[key] = fn
+    return fn
+
+
+def _jitted_solve(
+    spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype, weighted
+) -> Callable:
+    """The jitted solve of `compiled_solve`'s configuration (traced on its first call)."""
+    import optimistix as optx
+
+    from ._problem import build_problem
+    from ._solvers import make_solver
+
+    reflected = tuple(kind == "nonnegative" for kind in free_kinds(spec, free))
+    solver_obj = (
+        make_solver(solver, rtol, atol, float(np.finfo(dtype).eps), batched, reflected)
+        if isinstance(solver, str)
+        else solver
+    )
+    run = build_problem(spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched)
+    if batched:
+        if max_steps > 2 * _FIRST_ROUND:
+            first = build_problem(
+                spec, free, loss, solver_obj, _FIRST_ROUND, guess, rtol, atol, batched
+            )
+            rounds = _in_rounds(
+                first,
+                run,
+                packed_slices(len(free_kinds(spec, free)))["result"].start,
+                optx.RESULTS.nonlinear_max_steps_reached._value.item(),
+            )
+            run = _by_batch_size(rounds, run)
+        fn = jax.jit(_chunked(run, _CHUNK), compiler_options=_COMPILER_OPTIONS)
+    else:
+        fn = jax.jit(
+            lambda flat: run(*_unflatten_inputs(spec, _read_in_order(flat), weighted)),
+            compiler_options=_COMPILER_OPTIONS,
+        )
     return fn

@@ -5,7 +5,6 @@ outputs packed into one vector (`layout`)."""
 from __future__ import annotations
 
 import functools
-import math
 
 import jax
 import jax.numpy as jnp
@@ -14,6 +13,7 @@ import optimistix as optx
 from jaxtyping import Array
 
 from ._guess import clamp_candidate, in_order, linear_candidate, scale_candidates
+from ._layout import SOLVE_LAYOUT, finish_layout
 from ._reparam import by_kind, param_slope, to_internal, to_param
 from ._solvers import (
     LevenbergMarquardt,
@@ -447,7 +447,7 @@ def _finish(plan: _Plan, mid, values, d, target, weights, inv_target, try_zero: 
         at_bound=at_bound,
         grad_ok=grad_ok,
     )
-    return _pack(out, _finish_layout(len(flat_kinds)), dtype)
+    return _pack(out, finish_layout(len(flat_kinds)), dtype)
 
 
 def _solve_outputs(mid):
@@ -459,7 +459,7 @@ def _solve_outputs(mid):
         start_finite=jnp.isfinite(mid["start_loss"]),
         start_loss=mid["start_loss"],
     )
-    return _pack(out, _SOLVE_LAYOUT, mid["start_loss"].dtype)
+    return _pack(out, SOLVE_LAYOUT, mid["start_loss"].dtype)
 
 
 def build_problem(spec: Spec, free, loss, solver_obj, max_steps, guess, rtol, atol, batched):
@@ -501,51 +501,6 @@ def build_problem(spec: Spec, free, loss, solver_obj, max_steps, guess, rtol, at
     return run
 
 
-def _finish_layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
-    """Name and per-problem shape of each output `finish` packs, `k` free values."""
-    return [
-        ("pvec", (k,)),
-        ("jtj", (k, k)),
-        ("at_bound", (k,)),
-        ("loss", ()),
-        ("max_rel", ()),
-        ("rms_rel", ()),
-        ("grad_ok", ()),
-    ]
-
-
-#: ...and of those packed from the solve alone, after them.
-_SOLVE_LAYOUT = [("result", ()), ("steps", ()), ("start_finite", ()), ("start_loss", ())]
-
-
-def packed_layout(k: int) -> list[tuple[str, tuple[int, ...]]]:
-    """Name and per-problem shape of every packed output, in order."""
-    return _finish_layout(k) + _SOLVE_LAYOUT
-
-
 def _pack(out: dict[str, Array], layout: list[tuple[str, tuple[int, ...]]], dtype) -> Array:
     """Outputs of one problem as one vector of the fit's float `dtype` (one transfer)."""
     return jnp.concatenate([jnp.ravel(out[name]).astype(dtype) for name, _ in layout])
-
-
-@functools.cache
-def packed_slices(k: int) -> dict[str, slice]:
-    """Where each output of `packed_layout(k)` lies along the packed axis."""
-    out, i = {}, 0
-    for name, shape in packed_layout(k):
-        out[name] = slice(i, i + math.prod(shape))
-        i += math.prod(shape)
-    return out
-
-
-def unpack_columns(flat: np.ndarray, k: int) -> dict[str, np.ndarray]:
-    """The packed outputs of a batch, by name, each with the batch axis first."""
-    out = {}
-    for name, shape in packed_layout(k):
-        piece = flat[:, packed_slices(k)[name]].reshape((len(flat), *shape))
-        if name in ("result", "steps"):
-            piece = piece.astype(np.int64)
-        elif name in ("start_finite", "at_bound", "grad_ok"):
-            piece = piece.astype(bool)
-        out[name] = piece
-    return out

@@ -11,26 +11,35 @@ from typing import Any
 
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
 from .._curves import Model
-from ._problem import packed_slices, unpack_columns
+from ._layout import packed_slices, unpack_columns
 from ._spec import free_size, free_slices, free_values, rebuild
 
 # ----------------------------------------------------------------------------- results
 #: What a fit's `model` may be besides a `(fn, params)` pair.
 _MODELS = Model
-_MESSAGES = tuple(optx.RESULTS._index_to_message)
-_RESULT_NAMES = {item._value.item(): name for name, item in optx.RESULTS._name_to_item.items()}
 
 
-_MAX_STEPS = optx.RESULTS.nonlinear_max_steps_reached._value.item()
+def max_steps_code() -> int:
+    """optimistix's code for "stopped at max_steps" (0 is success)."""
+    import optimistix as optx  # on demand: a result read from the cache has no other need
+
+    return optx.RESULTS.nonlinear_max_steps_reached._value.item()
+
+
+def _optimistix_message(code: int) -> str:
+    import optimistix as optx
+
+    return optx.RESULTS._index_to_message[code]
 
 
 def _converged(code, start_finite, loss, grad_ok):
     """Converged: optimistix succeeded, or stopped at max steps on a first-order optimum."""
     code = np.asarray(code)
-    ok = (code == 0) | ((code == _MAX_STEPS) & np.asarray(grad_ok))
+    ok = code == 0
+    if not np.all(ok):
+        ok = ok | ((code == max_steps_code()) & np.asarray(grad_ok))
     return ok & np.asarray(start_finite) & np.isfinite(loss)
 
 
@@ -43,15 +52,17 @@ def _message(
     if not start_finite:
         msg = "the residuals are not finite (NaN or inf) at the starting parameters"
         if code:
-            msg += f"; optimistix: {_MESSAGES[code].splitlines()[0]}"
+            msg += f"; optimistix: {_optimistix_message(code).splitlines()[0]}"
         return False, msg
     if not math.isfinite(loss):
         return False, "the loss at the solution is not finite"
-    if code == _MAX_STEPS and grad_ok:
+    if code and code == max_steps_code() and grad_ok:
         note = "converged (first-order optimal: residuals orthogonal to the Jacobian within rtol, or at rounding level; optimistix reached max_steps)"
         return True, "; ".join([note, *notes])
     if code:
-        return False, "; ".join([f"optimistix: {' '.join(_MESSAGES[code].split())}", *notes])
+        return False, "; ".join(
+            [f"optimistix: {' '.join(_optimistix_message(code).split())}", *notes]
+        )
     return True, "; ".join(["converged", *notes])
 
 

@@ -10,16 +10,16 @@ from typing import Any
 
 import jax
 import numpy as np
-import optimistix as optx
 
 from .._errors import BadTypeError, BadValueError, UnknownNameError
-from ._solvers import (
-    SOLVERS,
-)
 from ._spec import CONSTRAINT_WORDS, Spec, free_size
 
 #: Loss names accepted by `fit` (see the module docstring for the residuals).
 LOSSES = ("relative", "log", "absolute")
+
+#: Solver names accepted by `fit`: the keys of `attenfit._fit._solvers.SOLVERS`, whose module
+#: (optimistix's solvers) is imported only when a solve is traced.
+SOLVER_NAMES = ("levenberg_marquardt", "dogleg", "gauss_newton", "bfgs", "optimistix_lm")
 
 
 # ----------------------------------------------------------------------------- validation
@@ -161,19 +161,25 @@ def validate_options(
     return free
 
 
+def _is_optimistix_solver(solver: Any) -> bool:
+    import optimistix as optx
+
+    return isinstance(solver, (optx.AbstractLeastSquaresSolver, optx.AbstractMinimiser))
+
+
 @functools.lru_cache(maxsize=256)
 def _checked_options(spec, free, loss, solver, max_steps_type, max_steps, n) -> tuple[str, ...]:
     """`free`, once `free`, `loss`, `solver` and `max_steps` are checked (see `fit`)."""
     if not isinstance(loss, str) or loss not in LOSSES:
         raise UnknownNameError(f"unknown loss {loss!r}; known losses: {', '.join(LOSSES)}")
     if isinstance(solver, str):
-        if solver not in SOLVERS:
+        if solver not in SOLVER_NAMES:
             raise UnknownNameError(
-                f"unknown solver {solver!r}; known solvers: {', '.join(SOLVERS)}"
+                f"unknown solver {solver!r}; known solvers: {', '.join(SOLVER_NAMES)}"
             )
-    elif not isinstance(solver, (optx.AbstractLeastSquaresSolver, optx.AbstractMinimiser)):
+    elif not _is_optimistix_solver(solver):
         raise BadTypeError(
-            f"solver must be one of {list(SOLVERS)} or an optimistix least-squares solver or "
+            f"solver must be one of {list(SOLVER_NAMES)} or an optimistix least-squares solver or "
             f"minimiser, got {solver!r}"
         )
     if isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1:

@@ -12,8 +12,7 @@ differences: compiling JAX's gradient through the disk's exact irradiance takes 
 long as its value, and the error has kinks anyway), then a compass search with halving
 steps (robust at a kink: the point-light model's `max(0, n.l)`, a model's clamps), twice
 over. Evaluations go in fixed blocks of `_BLOCK` receivers: one compilation per model
-structure and light shape, and one of the exact irradiance per light shape, which every model
-shares.
+structure and light shape, the exact irradiance's shared by every model.
 Each step is taken only when it raises the error, so the result is never below the grid's
 maximum, and every value it reports is an evaluated receiver's error, never above the
 supremum.
@@ -212,7 +211,7 @@ def _light(emitter: Any, shapes: bool = False) -> str:
     )
 
 
-def _frame(emitter: Any) -> tuple[np.ndarray, np.ndarray, float]:
+def _frame(emitter: Any) -> tuple[np.ndarray, np.ndarray, np.float64]:
     """(centre, rotation whose columns are the light frame's x, y, z in the world, radius)."""
     c = np.asarray(emitter.center, np.float64)
     if isinstance(emitter, DiskEmitter):
@@ -224,42 +223,23 @@ def _frame(emitter: Any) -> tuple[np.ndarray, np.ndarray, float]:
     ex = trial - np.dot(trial, m) * m
     ex = ex / np.linalg.norm(ex)
     ey = np.cross(m, ex)
-    return c, np.stack([ex, ey, m], -1), float(np.asarray(emitter.radius))
+    return c, np.stack([ex, ey, m], -1), np.float64(np.asarray(emitter.radius))
 
 
 @eqx.filter_jit
 def _exact(emitter: Any, pw: Float[Array, "n 3"], nw: Float[Array, "n 3"]) -> Float[Array, "2 n"]:
-    """(E_true, E_facing) at receivers in world coordinates, stacked: E_facing the truth at a
-    receiver there facing the light's centre (the reference of the "any" set).
-
-    Compiled apart from the model (`_model_values`), once per light shape for every model:
-    in one program with each model, the disk's exact irradiance made each model's
-    compilation 1.5 s, against 0.13 s for the model alone.
-    """
+    """(E_true, E_facing) at world receivers: E_facing the truth at a receiver there facing the
+    light's centre (the "any" set's reference). Compiled apart from the model, once per light
+    shape: with each model, the disk's truth made each model's compilation 1.5 s, not 0.13."""
     to_c = jnp.asarray(emitter.center, jnp.float64)[None, :] - pw
     return jnp.stack([irradiance(emitter, pw, nw), irradiance(emitter, pw, to_c)])
 
 
-@eqx.filter_jit
-def _model_values(
-    model: AreaModel, emitter: Any, pw: Float[Array, "n 3"], nw: Float[Array, "n 3"]
-) -> Float[Array, " n"]:
-    """E_model at receivers in world coordinates."""
-    return area_irradiance(model, emitter, pw, nw)
-
-
-def _truths(model: AreaModel, emitter: Any, pw: Array, nw: Array) -> Float[np.ndarray, "3 n"]:
-    """(E_model, E_true, E_facing) at receivers in world coordinates, stacked."""
-    return np.concatenate(
-        [
-            np.asarray(_model_values(model, emitter, pw, nw))[None],
-            np.asarray(_exact(emitter, pw, nw)),
-        ]
-    )
+_model_values = eqx.filter_jit(area_irradiance)
 
 
 def _relative(parts: Float[np.ndarray, "3 n"], rset: str, emitter: Any) -> Float[np.ndarray, " n"]:
-    """The report's signed error from `_truths`' rows; NaN where `ref` is not finite and
+    """The report's signed error from `_blocks`' rows; NaN where `ref` is not finite and
     positive or, on receivers of any orientation, below `REF_MIN` times the light's radiance."""
     Em, Et, Ef = parts
     ref, floor = Et, 0.0
@@ -285,22 +265,20 @@ def _receivers_at(
 
 
 def _blocks(model, emitter, piece: Piece | None, x: np.ndarray):
-    """(`_truths` rows, points, normals) in blocks of `_BLOCK` receivers: x are box
+    """((E_model, E_true, E_facing) rows, points, normals) in blocks of `_BLOCK` receivers: x are box
     coordinates of `piece`, or with `piece` None the receivers themselves, (n, 6): world
-    points and normals. (Arrays go to the compiled functions as numpy: `jnp.asarray` on
-    each block took a fifth of a cold report's searches.)"""
+    points and normals. (Blocks go in as numpy: `jnp.asarray` took a fifth of the time.)"""
     c, rot, r = _frame(emitter)
     outs: list[list[np.ndarray]] = [[], [], []]
     for i in range(0, len(x), _BLOCK):
-        block = np.asarray(x[i : i + _BLOCK], np.float64)
-        k = len(block)
-        if k < _BLOCK:
-            block = np.concatenate([block, np.repeat(block[-1:], _BLOCK - k, axis=0)])
+        k = min(_BLOCK, len(x) - i)  # the last block padded with its last receiver
+        block = np.pad(np.asarray(x[i : i + k], np.float64), ((0, _BLOCK - k), (0, 0)), "edge")
         if piece is None:
             pw, nw = block[:, :3], block[:, 3:]
         else:
-            pw, nw = _receivers_at(piece, c, rot, np.float64(r), block)
-        outs[0].append(_truths(model, emitter, pw, nw)[:, :k])
+            pw, nw = _receivers_at(piece, c, rot, r, block)
+        E_model = np.asarray(_model_values(model, emitter, pw, nw))[None]
+        outs[0].append(np.concatenate([E_model, np.asarray(_exact(emitter, pw, nw))])[:, :k])
         outs[1].append(np.asarray(pw)[:k])
         outs[2].append(np.asarray(nw)[:k])
     if not outs[0]:
