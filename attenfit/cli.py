@@ -392,7 +392,9 @@ def run() -> None:
 
     The process then leaves through `os._exit` once its output is flushed, whatever the
     code. Nothing is lost: every output was already committed or removed by the verb's own
-    clean-up, and no thread or child process outlives `main`. Python's own shutdown
+    clean-up, every child process has ended, and the only threads that may still run are
+    daemon threads a failed command left behind (the report's figures and witness), which
+    Python's shutdown would not wait for either. Python's own shutdown
     (tearing down JAX's backends and some thousand modules) took 0.35-0.4 s of a warm
     `attenfit scene` of 2 s, and an interrupt that lands while XLA is compiling can
     crash it (a segfault instead of exit 130/143).

@@ -327,9 +327,8 @@ def _jitted_solve(
     spec, free, loss, solver, max_steps, rtol, atol, guess, batched, dtype, weighted
 ) -> Callable:
     """The jitted solve of `compiled_solve`'s configuration (traced on its first call)."""
-    import optimistix as optx
-
     from ._problem import build_problem
+    from ._result import max_steps_code
     from ._solvers import make_solver
 
     reflected = tuple(kind == "nonnegative" for kind in free_kinds(spec, free))
@@ -348,7 +347,7 @@ def _jitted_solve(
                 first,
                 run,
                 packed_slices(len(free_kinds(spec, free)))["result"].start,
-                optx.RESULTS.nonlinear_max_steps_reached._value.item(),
+                max_steps_code(),
             )
             run = _by_batch_size(rounds, run)
         fn = jax.jit(_chunked(run, _CHUNK), compiler_options=_COMPILER_OPTIONS)
