@@ -385,7 +385,7 @@ def _file_arguments(args: argparse.Namespace) -> list[str]:
 def run() -> None:
     """The console entry point: `main()`, then exit with its code.
 
-    SIGINT and SIGTERM are only recorded outside `main`, then ignored: one that came while
+    SIGINT and SIGTERM are only recorded outside `main`: one that came while
     the process started stops the command as soon as `main` begins (exit 130/143); one that
     comes as it leaves cannot end it with a traceback or another code. (Only one in the first tenth of
     a second, while Python itself starts and imports this module, gets Python's default.)
@@ -404,9 +404,7 @@ def run() -> None:
 
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, _record_early)
-    code = main()
-    for s in (signal.SIGINT, signal.SIGTERM):  # not _record_early: Python's shutdown would
-        signal.signal(s, signal.SIG_IGN)  # put back the default (SIGTERM: death, exit -15)
+    code = main()  # its handlers put back: a signal from here on is only recorded
     for stream in (sys.stdout, sys.stderr):
         # a reader that left (`| head`) is not an error, as within `main`; closed: nothing
         with contextlib.suppress(OSError, ValueError):

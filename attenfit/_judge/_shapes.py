@@ -151,7 +151,9 @@ def _truth(emitter: Any, pts: Any, nrm: Any) -> Any:
 
 
 @eqx.filter_jit
-def _predicted(model: AreaModel, emitter: Any, pts: Any, nrm: Any) -> Any:
+def predicted(model: AreaModel, emitter: Any, pts: Any, nrm: Any) -> Any:
+    """A model's irradiance at receivers, compiled per model structure and light shape (the
+    worst-case search's too, `_worst`)."""
     return area_irradiance(model, emitter, pts, nrm)
 
 
@@ -176,7 +178,7 @@ def _f64(model: Any) -> AreaModel:
 
 def _relative(model: AreaModel, config: ShapeConfig, pts, nrm, E: np.ndarray) -> np.ndarray:
     """The signed error relative to the truth `E` (NaN where it is not positive)."""
-    Em = _in_blocks(_predicted, _f64(model), config.emitter(), pts=pts, nrm=nrm)
+    Em = _in_blocks(predicted, _f64(model), config.emitter(), pts=pts, nrm=nrm)
     ok = np.isfinite(E) & (E > 0)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         return np.where(ok, (Em - E) / np.where(ok, E, 1.0), np.nan)

@@ -43,7 +43,6 @@ from .._truth import (
     RectEmitter,
     SphereEmitter,
     TubeEmitter,
-    area_irradiance,
     emitter_from_dict,
     irradiance,
 )
@@ -58,6 +57,7 @@ from ._receivers import (
     pieces,
     sample,
 )
+from ._shapes import predicted
 
 __all__ = ["WorstCase", "receiver_error", "typical_error", "worst_case"]
 
@@ -235,9 +235,6 @@ def _exact(emitter: Any, pw: Float[Array, "n 3"], nw: Float[Array, "n 3"]) -> Fl
     return jnp.stack([irradiance(emitter, pw, nw), irradiance(emitter, pw, to_c)])
 
 
-_model_values = eqx.filter_jit(area_irradiance)
-
-
 def _relative(parts: Float[np.ndarray, "3 n"], rset: str, emitter: Any) -> Float[np.ndarray, " n"]:
     """The report's signed error from `_blocks`' rows; NaN where `ref` is not finite and
     positive or, on receivers of any orientation, below `REF_MIN` times the light's radiance."""
@@ -277,7 +274,7 @@ def _blocks(model, emitter, piece: Piece | None, x: np.ndarray):
             pw, nw = block[:, :3], block[:, 3:]
         else:
             pw, nw = _receivers_at(piece, c, rot, r, block)
-        E_model = np.asarray(_model_values(model, emitter, pw, nw))[None]
+        E_model = np.asarray(predicted(model, emitter, pw, nw))[None]
         outs[0].append(np.concatenate([E_model, np.asarray(_exact(emitter, pw, nw))])[:, :k])
         outs[1].append(np.asarray(pw)[:k])
         outs[2].append(np.asarray(nw)[:k])
