@@ -453,7 +453,8 @@ cli.run()
 def test_signals_as_the_process_leaves_change_nothing(tmp_path):
     """A command that has finished exits with its own code, however many SIGTERMs come while
     it leaves: before, Python's shutdown put back the default handler and the process died
-    (exit -15) after writing its outputs; `run` now ignores them and leaves by `os._exit`."""
+    (exit -15) after writing its outputs; `run` now only records them and leaves by
+    `os._exit`."""
     env = {**os.environ, "PYTHONPATH": str(REPO)}
     for _ in range(3):
         proc = subprocess.run(
