@@ -5,7 +5,8 @@ Per configuration, the first call in the process (compiling the solves of the fa
 groups and the truth's programs) and the warm call (median of repeats) of `answer_file`,
 split into reading and sampling, ground truth, and fitting plus judging plus the per-light
 choices (and the range trade, with a threshold). Configurations: every family; `--engine
-godot` with the range trade; every family with `precision = float32`. The goal (issue 21): <= 5 s warm.
+godot` with the range trade; every family with `precision = float32`. The goal (issue
+21): <= 5 s warm.
 
 Run: `python -m benchmarks usd` (a few minutes cold on 2 busy cores).
 """
